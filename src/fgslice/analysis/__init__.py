@@ -1,0 +1,1 @@
+"""Analysis: dead-volume simulation, fidelity, statistics."""

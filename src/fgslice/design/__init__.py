@@ -1,0 +1,1 @@
+"""Design input: the .vcad language, expressions, geometry and material nodes, meshes."""

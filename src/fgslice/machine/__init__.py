@@ -1,0 +1,1 @@
+"""Machines: dialects (state-change commands), the G-code writer, printer profiles."""

@@ -1,0 +1,1 @@
+"""Planning: color order, travel order, purge towers, look-ahead of state changes."""

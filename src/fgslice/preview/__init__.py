@@ -1,0 +1,1 @@
+"""Previews: layer images, thumbnails, the browser viewer, reports."""

@@ -1,0 +1,1 @@
+"""Slicing: layer outlines, the palette, and per-color faces."""

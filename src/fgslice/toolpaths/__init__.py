@@ -1,0 +1,1 @@
+"""Toolpaths: walls, skins, infill, the two strategies, zippers."""

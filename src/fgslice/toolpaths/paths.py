@@ -1,0 +1,99 @@
+"""The toolpath model: polylines with a role, a palette color, a width and a height.
+
+A :class:`Path` holds its points as one ``(N, 2)`` float array in the bed frame (mm); no
+Python object per point. ``closed`` paths return to their first point (the first point
+is *not* repeated in ``points``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from enum import Enum
+
+import numpy as np
+
+
+class Role(Enum):
+    """What a path is, with PrusaSlicer's ``;TYPE:`` names as values."""
+
+    EXTERNAL_PERIMETER = "External perimeter"
+    PERIMETER = "Perimeter"
+    INTERNAL_INFILL = "Internal infill"
+    SOLID_INFILL = "Solid infill"
+    TOP_SOLID_INFILL = "Top solid infill"
+    BOTTOM_SOLID_INFILL = "Bottom solid infill"
+    WIPE_TOWER = "Wipe tower"
+    SKIRT = "Skirt/Brim"
+    CUSTOM = "Custom"
+
+
+@dataclass(frozen=True, eq=False)
+class Path:
+    """One extrusion polyline.
+
+    Attributes:
+        points: ``(N, 2)`` float64 array of XY positions in the bed frame, mm; N >= 2.
+        role: what the path is.
+        color: palette color index (0-based) the path is printed in.
+        width: bead width, mm.
+        height: bead height (layer height), mm.
+        closed: True if the path returns from its last point to its first.
+    """
+
+    points: np.ndarray
+    role: Role
+    color: int
+    width: float
+    height: float
+    closed: bool = False
+
+    def with_color(self, color: int) -> "Path":
+        """The same path in another color."""
+        return replace(self, color=color)
+
+    @property
+    def vertices(self) -> np.ndarray:
+        """All vertices in printing order, the first repeated at the end if closed."""
+        if self.closed:
+            return np.vstack([self.points, self.points[:1]])
+        return self.points
+
+    @property
+    def length(self) -> float:
+        """Printed length, mm (including the closing segment of a closed path)."""
+        return float(np.sum(np.hypot(*np.diff(self.vertices, axis=0).T)))
+
+    @property
+    def start(self) -> np.ndarray:
+        """First point (where printing begins)."""
+        return self.points[0]
+
+    @property
+    def end(self) -> np.ndarray:
+        """Last point printed (the first point again for closed paths)."""
+        return self.points[0] if self.closed else self.points[-1]
+
+
+def bead_area(width: float, height: float) -> float:
+    """Cross-section of a bead, mm², by the capsule model: ``h (w - h) + pi h^2 / 4``."""
+    return height * (width - height) + np.pi * height * height / 4.0
+
+
+@dataclass
+class LayerPaths:
+    """All toolpaths of one layer, unordered, in the bed frame.
+
+    Attributes:
+        index: 0-based layer number.
+        z: nozzle height for this layer (top of the layer), mm.
+        height: layer thickness, mm.
+        paths: the layer's paths (any order; planning orders them).
+        uncovered_mm2: area of the outline that no path covers because it is narrower
+            than a bead (reported, never printed as garbage).
+    """
+
+    index: int
+    z: float
+    height: float
+    paths: list[Path] = field(default_factory=list)
+    uncovered_mm2: float = 0.0

@@ -1,0 +1,64 @@
+"""Settings resolution: defaults, built-in profiles, inheritance, overrides, errors."""
+
+import pytest
+
+from fgslice.errors import SettingsError
+from fgslice.settings import builtin_profiles, load_settings, parse_overrides
+
+
+def test_every_builtin_profile_loads_with_its_dialect():
+    expected = {
+        "marlin-mixing": "marlin-mixing",
+        "marlin-mixing-m163": "marlin-mixing-m163",
+        "toolchanger": "toolchanger",
+        "foam-lwpla": "temperature",
+        "foam-tpu": "temperature",
+        "template-diw": "template",
+    }
+    assert set(builtin_profiles()) == set(expected)
+    for name, dialect in expected.items():
+        s = load_settings(name)
+        assert s.dialect == dialect
+        assert s.profile_name == name
+
+
+def test_inheritance_and_overrides():
+    s = load_settings("foam-tpu", parse_overrides(["walls=3", "lookahead_mm=auto", "zipper=5"]))
+    assert s.flow_model == "tpu" and s.temperature_a == 190.0  # inherited from foam-lwpla
+    assert s.walls == 3 and s.zipper == 5.0
+    # V_melt / (h (w - h) + pi h^2 / 4) with h = 0.2, w = 0.4
+    assert s.lookahead_distance == pytest.approx(20.0 / (0.2 * 0.2 + 3.141592653589793 * 0.04 / 4))
+
+
+@pytest.mark.parametrize(
+    "pairs, words",
+    [
+        (["wals=3"], "did you mean 'walls'"),
+        (["walls=-1"], "walls"),
+        (["layer_height=0.5", "bead_width=0.4"], "bead_width"),
+        (["strategy=3"], "strategy"),
+        (["walls"], "KEY=VALUE"),
+    ],
+)
+def test_bad_overrides_are_refused_clearly(pairs, words):
+    with pytest.raises(SettingsError) as info:
+        load_settings(None, parse_overrides(pairs))
+    assert words in info.value.format()
+
+
+def test_unknown_profile_suggests_a_builtin(tmp_path):
+    with pytest.raises(SettingsError) as info:
+        load_settings("toolchangr")
+    assert "toolchanger" in info.value.format()
+    bad = tmp_path / "bad.toml"
+    bad.write_text("walls = [", encoding="utf-8")
+    with pytest.raises(SettingsError) as info:
+        load_settings(str(bad))
+    assert "bad.toml" in info.value.format()
+
+
+def test_user_profile_inherits_a_builtin(tmp_path):
+    path = tmp_path / "mine.toml"
+    path.write_text('inherits = "toolchanger"\n[speeds]\nprint_speed = 55\n', encoding="utf-8")
+    s = load_settings(str(path))
+    assert s.dialect == "toolchanger" and s.print_speed == 55 and s.profile_name == "mine"
