@@ -1,0 +1,341 @@
+"""Dead-volume simulation: the composition a printer actually deposits on every segment.
+
+Two models of the hotend, both first-order systems driven by the commanded state:
+
+* **Melt chamber** (mixing hotends, toolchangers, template machines): the chamber of
+  volume ``V_melt`` (mm³) is plug flow through ``V_plug = (1 - s) V_melt`` followed by a
+  well-mixed volume ``V_mix = s V_melt`` (``s`` = ``settings.mixing_share``). The
+  composition leaving the nozzle once a cumulative volume ``v`` has been extruded is
+  the commanded composition at ``v - V_plug``, smoothed by ``dy/dv = (u - y) / V_mix``.
+  The mean residence volume is ``V_melt`` — the volume Appendix A's look-ahead
+  ``L = V_melt / A`` purges. A toolchanger is treated the same way, as mixing of the
+  commanded state vector.
+* **Thermal lag** (temperature dialect): the nozzle temperature follows the commanded
+  one with ``dT/dt = (T_cmd - T) / tau`` (``settings.tau_s``, seconds) over the time of
+  every move, travels included; the deposited "composition" is the fraction of the
+  first material that the linear mapping ``T = T_b + f_A (T_a - T_b)`` gives at the
+  actual temperature (clamped to [0, 1]).
+
+Both are solved exactly for piecewise-constant inputs (no time stepping): the result
+for a segment is the average of the model output over the segment's volume (or time).
+The core works on plain arrays (:class:`SegmentTrace`); :func:`simulate` builds the
+trace from a G-code program and evaluates the design at the segment midpoints.
+
+Conventions: mm, mm³, s, degC; fractions in the design's material order, rows sum to 1;
+coordinates of a trace are in the bed frame (``bed = design + placement offset``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fgslice.design.base import Design, Material
+from fgslice.errors import SettingsError
+
+#: Per-interval decay exponent cap: beyond it the previous state weighs < 5e-18.
+_MAX_DECAY = 40.0
+#: Exponent span of one block of the exact scan (keeps exp(+span) far from overflow).
+_BLOCK_DECAY = 500.0
+
+
+def lag_average(widths: np.ndarray, inputs: np.ndarray, scale: float, initial: np.ndarray) -> np.ndarray:
+    """Average output of a first-order lag over consecutive intervals of constant input.
+
+    Solves ``dy/ds = (u - y) / scale`` exactly where ``u`` is constant (row ``inputs[i]``)
+    over interval ``i`` of length ``widths[i]`` (same unit as ``scale``: mm³ or s), from
+    ``y = initial`` at the start of the first interval, and returns the mean of ``y``
+    over each interval. Vectorized: a prefix sum per block of bounded decay (at most
+    ``total decay / 500`` blocks), so the cost is linear in the number of intervals.
+
+    Args:
+        widths: ``(m,)`` positive interval lengths.
+        inputs: ``(m,)`` or ``(m, k)`` input held over each interval.
+        scale: time or volume constant (> 0; 0 returns ``inputs`` unchanged).
+        initial: ``()`` or ``(k,)`` state before the first interval.
+
+    Returns:
+        Array shaped like ``inputs``: the mean output over each interval.
+    """
+    u = np.asarray(inputs, dtype=float)
+    if scale <= 0 or len(u) == 0:
+        return u.copy()
+    flat = u.ndim == 1
+    u2 = u[:, None] if flat else u
+    y0 = np.broadcast_to(np.asarray(initial, dtype=float), u2.shape[1:])
+    x = np.asarray(widths, dtype=float) / scale
+    xc = np.minimum(x, _MAX_DECAY)
+    e_end = np.cumsum(xc)
+    e_start = e_end - xc
+    block = (e_start // _BLOCK_DECAY).astype(np.int64)
+    first = np.flatnonzero(np.r_[True, block[1:] != block[:-1]])
+    bounds = np.r_[first, len(x)]
+    rel_end = e_end - np.repeat(e_start[first], np.diff(bounds))
+    terms = (-np.expm1(-xc) * np.exp(rel_end))[:, None] * u2
+    sums = np.empty_like(terms)
+    for lo, hi in zip(bounds[:-1], bounds[1:]):
+        np.cumsum(terms[lo:hi], axis=0, out=sums[lo:hi])
+    decay = np.exp(-rel_end)[:, None]
+    zero_start = decay * sums
+    # Each block spans > 460 units of decay, so a block's end forgets its own start state.
+    block_start = np.empty((len(first),) + u2.shape[1:])
+    block_start[0] = y0
+    block_start[1:] = zero_start[first[1:] - 1]
+    y_end = zero_start + decay * np.repeat(block_start, np.diff(bounds), axis=0)
+    y_begin = np.vstack([y0[None, :], y_end[:-1]])
+    gain = np.where(x > 0, -np.expm1(-x) / np.where(x > 0, x, 1.0), 1.0)[:, None]
+    mean = u2 + (y_begin - u2) * gain
+    return mean[:, 0] if flat else mean
+
+
+def mixing_deposit(
+    volumes: np.ndarray,
+    commanded: np.ndarray,
+    v_plug: float,
+    v_mix: float,
+    initial: np.ndarray | None = None,
+) -> np.ndarray:
+    """Composition deposited on each extrusion segment by the melt-chamber model.
+
+    Args:
+        volumes: ``(n,)`` extruded volume of each segment in printing order, mm³ (> 0).
+        commanded: ``(n, k)`` composition commanded while each segment is extruded.
+        v_plug: plug-flow volume, mm³ (delay).
+        v_mix: well-mixed volume, mm³ (exponential smoothing constant).
+        initial: ``(k,)`` chamber content before the first segment; default: the first
+            commanded composition (a primed hotend).
+
+    Returns:
+        ``(n, k)`` volume-averaged deposited composition of each segment.
+    """
+    vol = np.asarray(volumes, dtype=float)
+    cmd = np.asarray(commanded, dtype=float)
+    n = len(vol)
+    if n == 0:
+        return cmd.copy()
+    start = cmd[0] if initial is None else np.asarray(initial, dtype=float)
+    edges = np.concatenate([[0.0], np.cumsum(vol)])
+    total = edges[-1]
+    changed = np.flatnonzero(np.any(cmd[1:] != cmd[:-1], axis=1)) + 1
+    arrivals = np.concatenate([[v_plug], edges[changed] + v_plug])
+    grid = np.union1d(edges, arrivals[arrivals < total])
+    widths = np.diff(grid)
+    mids = grid[:-1] + widths / 2
+    source = np.searchsorted(edges, mids - v_plug, side="right") - 1
+    inputs = np.where((source < 0)[:, None], start, cmd[np.clip(source, 0, n - 1)])
+    mean = lag_average(widths, inputs, v_mix, start)
+    segment = np.searchsorted(edges, mids, side="right") - 1
+    first = np.searchsorted(segment, np.arange(n))
+    return np.add.reduceat(mean * widths[:, None], first, axis=0) / vol[:, None]
+
+
+def thermal_temperature(durations: np.ndarray, commanded: np.ndarray, tau_s: float, initial: float | None = None) -> np.ndarray:
+    """Mean nozzle temperature over each move under a first-order thermal lag.
+
+    Args:
+        durations: ``(n,)`` duration of every move in order (travels included), s.
+        commanded: ``(n,)`` commanded nozzle temperature during each move, degC.
+        tau_s: thermal time constant, s.
+        initial: temperature before the first move; default the first commanded one
+            (the start G-code waits for it with M109).
+
+    Returns:
+        ``(n,)`` mean actual temperature over each move, degC.
+    """
+    t_cmd = np.asarray(commanded, dtype=float)
+    if len(t_cmd) == 0:
+        return t_cmd.copy()
+    start = t_cmd[0] if initial is None else float(initial)
+    widths = np.maximum(np.asarray(durations, dtype=float), 1e-9)
+    return lag_average(widths, t_cmd, tau_s, np.asarray(start))
+
+
+def fraction_from_temperature(temperature: np.ndarray, temperature_a: float, temperature_b: float) -> np.ndarray:
+    """Two-material fractions ``(n, 2)`` the linear temperature mapping gives, clamped.
+
+    ``temperature_a`` is the temperature of 100 % material A, ``temperature_b`` of 100 % B.
+    """
+    if temperature_a == temperature_b:
+        raise SettingsError(
+            "temperature_a equals temperature_b: a temperature cannot encode a composition",
+            hint="set different temperature_a and temperature_b",
+        )
+    f_a = np.clip((np.asarray(temperature, dtype=float) - temperature_b) / (temperature_a - temperature_b), 0.0, 1.0)
+    return np.stack([f_a, 1.0 - f_a], axis=-1)
+
+
+@dataclass
+class SegmentTrace:
+    """Every move of a print in order, as plain arrays (bed frame, mm, mm³, s, degC).
+
+    Attributes:
+        start: ``(n, 3)`` start point of each move.
+        end: ``(n, 3)`` end point of each move.
+        volume: ``(n,)`` deposited volume (0 for travels), mm³.
+        duration: ``(n,)`` time the move takes, s.
+        commanded: ``(n, k)`` composition commanded during the move.
+        temperature: ``(n,)`` commanded nozzle temperature, degC (temperature dialect).
+        height: ``(n,)`` layer height of the move, mm.
+        layer: ``(n,)`` 0-based layer index.
+        line: ``(n,)`` 1-based line in the G-code (0 when not from a file).
+        part: ``(n,)`` True for moves that build the part (not skirt, purge or custom).
+    """
+
+    start: np.ndarray
+    end: np.ndarray
+    volume: np.ndarray
+    duration: np.ndarray
+    commanded: np.ndarray
+    temperature: np.ndarray
+    height: np.ndarray
+    layer: np.ndarray
+    line: np.ndarray
+    part: np.ndarray
+
+
+@dataclass(frozen=True)
+class MeltModel:
+    """Parameters of the simulation.
+
+    Attributes:
+        kind: ``"mixing"`` (melt chamber) or ``"thermal"`` (temperature dialect).
+        melt_volume_mm3: V_melt, mm³ (mixing).
+        mixing_share: share of V_melt that is well mixed (mixing).
+        tau_s: thermal time constant, s (thermal).
+        temperature_a: degC at 100 % material A (thermal).
+        temperature_b: degC at 100 % material B (thermal).
+    """
+
+    kind: str
+    melt_volume_mm3: float = 0.0
+    mixing_share: float = 0.0
+    tau_s: float = 0.0
+    temperature_a: float = 0.0
+    temperature_b: float = 0.0
+
+    @classmethod
+    def from_settings(cls, settings, melt_volume_mm3: float | None = None) -> "MeltModel":
+        """The model of ``settings``' dialect; ``melt_volume_mm3`` overrides V_melt."""
+        volume = settings.melt_volume_mm3 if melt_volume_mm3 is None else float(melt_volume_mm3)
+        if volume < 0:
+            raise SettingsError(f"melt volume must be >= 0 mm^3, got {volume}", hint="--melt-volume 68.5")
+        return cls(
+            kind="thermal" if settings.dialect == "temperature" else "mixing",
+            melt_volume_mm3=volume,
+            mixing_share=settings.mixing_share,
+            tau_s=settings.tau_s,
+            temperature_a=settings.temperature_a,
+            temperature_b=settings.temperature_b,
+        )
+
+    @property
+    def v_plug(self) -> float:
+        """Plug-flow volume ``(1 - s) V_melt``, mm³."""
+        return (1.0 - self.mixing_share) * self.melt_volume_mm3
+
+    @property
+    def v_mix(self) -> float:
+        """Well-mixed volume ``s V_melt``, mm³."""
+        return self.mixing_share * self.melt_volume_mm3
+
+
+def deposit(trace: SegmentTrace, model: MeltModel) -> np.ndarray:
+    """Deposited composition ``(n_extrusions, k)`` of the trace's extrusion moves, in order."""
+    extruding = trace.volume > 0
+    if model.kind == "thermal":
+        actual = thermal_temperature(trace.duration, trace.temperature, model.tau_s)
+        return fraction_from_temperature(actual[extruding], model.temperature_a, model.temperature_b)
+    return mixing_deposit(trace.volume[extruding], trace.commanded[extruding], model.v_plug, model.v_mix)
+
+
+@dataclass
+class SimulationResult:
+    """What a print deposits, segment by segment (extrusion moves only, printing order).
+
+    Attributes:
+        deposited: ``(n, k)`` simulated deposited fractions.
+        commanded: ``(n, k)`` fractions commanded while the segment was printed.
+        designed: ``(n, k)`` the design's fractions at the segment midpoints.
+        volume: ``(n,)`` extruded volume, mm³.
+        start: ``(n, 3)`` segment start, bed frame, mm.
+        end: ``(n, 3)`` segment end, bed frame, mm.
+        layer: ``(n,)`` layer index.
+        line: ``(n,)`` G-code line of the move (0 when not from a file).
+        part: ``(n,)`` True where the segment builds the part (metrics use only these).
+        materials: the design's materials (for colors).
+        palette_size: N from the G-code's ``; colors = N`` comment, if any.
+        model: the model used.
+    """
+
+    deposited: np.ndarray
+    commanded: np.ndarray
+    designed: np.ndarray
+    volume: np.ndarray
+    start: np.ndarray
+    end: np.ndarray
+    layer: np.ndarray
+    line: np.ndarray
+    part: np.ndarray
+    materials: list[Material]
+    palette_size: int | None
+    model: MeltModel
+
+    @property
+    def midpoint(self) -> np.ndarray:
+        """``(n, 3)`` segment midpoints, bed frame, mm."""
+        return (self.start + self.end) / 2
+
+
+def designed_at(design: Design, offset: tuple[float, float, float], points: np.ndarray, height: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The design's fractions and signed distance at bead centers.
+
+    Args:
+        design: the design (design frame).
+        offset: placement offset, ``bed = design + offset``, mm.
+        points: ``(n, 3)`` nozzle positions (bed frame, z = top of the layer), mm.
+        height: ``(n,)`` layer heights; the bead center is at ``z - height / 2``.
+
+    Returns:
+        ``((n, k) fractions, (n,) signed distance in mm)``.
+    """
+    x = points[:, 0] - offset[0]
+    y = points[:, 1] - offset[1]
+    z = points[:, 2] - height / 2 - offset[2]
+    return design.fractions(x, y, z), design.sdf(x, y, z)
+
+
+def simulate_trace(
+    trace: SegmentTrace,
+    design: Design,
+    offset: tuple[float, float, float],
+    model: MeltModel,
+    *,
+    palette_size: int | None = None,
+    part_tolerance_mm: float = 0.2,
+) -> SimulationResult:
+    """Simulate a trace and compare with the design placed at ``offset``.
+
+    Segments whose midpoint lies farther than ``part_tolerance_mm`` outside the design
+    (skirt, purge towers, travel-side artefacts of other slicers) or whose move is not
+    part of the part (``trace.part``) are kept in the result but flagged ``part=False``.
+    """
+    extruding = trace.volume > 0
+    deposited = deposit(trace, model)
+    start = trace.start[extruding]
+    end = trace.end[extruding]
+    designed, distance = designed_at(design, offset, (start + end) / 2, trace.height[extruding])
+    return SimulationResult(
+        deposited=deposited,
+        commanded=trace.commanded[extruding],
+        designed=designed,
+        volume=trace.volume[extruding],
+        start=start,
+        end=end,
+        layer=trace.layer[extruding],
+        line=trace.line[extruding],
+        part=trace.part[extruding] & (distance <= part_tolerance_mm),
+        materials=list(design.materials),
+        palette_size=palette_size,
+        model=model,
+    )
