@@ -1,0 +1,202 @@
+"""Build designs in Python: the same primitives and operators as the .vcad language.
+
+Example::
+
+    from fgslice.design import api
+    part = api.fgrade(["z/70", lambda x, y, z: 1 - z / 70], ["blue", "yellow"],
+                      api.translate((0, 0, 35), api.cylinder(15, 70)))
+    design = api.design(part)
+
+Fields are expression strings (see ``docs/language.md``) or Python callables taking numpy
+arrays ``x, y, z`` (and optionally ``d``, the child's signed distance) and returning an
+array of their shape. Lengths in mm, angles of :func:`rotate` in degrees.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from fgslice.design import nodes
+from fgslice.design.language import load_design, parse_design, resolve_mesh_path
+from fgslice.design.materials import MaterialLibrary, builtin_library, load_library
+from fgslice.errors import DesignError, MeshError
+
+__all__ = [
+    "sphere",
+    "cube",
+    "rectprism",
+    "cylinder",
+    "strut",
+    "function",
+    "mesh",
+    "union",
+    "intersection",
+    "difference",
+    "translate",
+    "rotate",
+    "scale",
+    "fgrade",
+    "design",
+    "load_design",
+    "parse_design",
+]
+
+Field = str | Callable
+
+
+def _positive(name: str, what: str, value: float) -> float:
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise DesignError(f"{name}: {what} must be a number, got {value!r}") from None
+    if not value > 0:
+        raise DesignError(f"{name}: {what} must be positive, got {value:g}")
+    return value
+
+
+def _vector(name: str, what: str, value) -> tuple[float, float, float]:
+    try:
+        vector = tuple(float(v) for v in value)
+    except (TypeError, ValueError):
+        raise DesignError(f"{name}: {what} must be 3 numbers, got {value!r}") from None
+    if len(vector) != 3:
+        raise DesignError(f"{name}: {what} must be 3 numbers, got {len(vector)}")
+    return vector
+
+
+def _material(material) -> str | None:
+    if material is not None and not isinstance(material, str):
+        raise DesignError(f"a material is named by a string, got {material!r}")
+    return material
+
+
+def _children(name: str, children: Sequence) -> tuple[nodes.Node, ...]:
+    if not children:
+        raise DesignError(f"{name} has no children", hint=f"pass at least one node to {name}(...)")
+    for child in children:
+        if not isinstance(child, nodes.Node):
+            raise DesignError(f"{name}: children must be nodes, got {type(child).__name__}")
+    return tuple(children)
+
+
+def sphere(r: float, material: str | None = None) -> nodes.Node:
+    """Ball of radius ``r`` (mm) centered at the origin."""
+    return nodes.Sphere(_positive("sphere", "r", r), _material(material))
+
+
+def cube(size: float, material: str | None = None) -> nodes.Node:
+    """Cube of edge ``size`` (mm) centered at the origin."""
+    return nodes.Box([_positive("cube", "size", size)] * 3, _material(material))
+
+
+def rectprism(sx, sy=None, sz=None, material: str | None = None) -> nodes.Node:
+    """Box of sizes ``(sx, sy, sz)`` (mm) centered at the origin; ``sx`` may be the 3-tuple."""
+    size = _vector("rectprism", "size", sx) if sy is None and sz is None else (sx, sy, sz)
+    return nodes.Box([_positive("rectprism", a, v) for a, v in zip(("sx", "sy", "sz"), size)], _material(material))
+
+
+def cylinder(r: float, h: float, material: str | None = None) -> nodes.Node:
+    """Cylinder of radius ``r`` along Z from ``-h/2`` to ``h/2`` (mm)."""
+    return nodes.Cylinder(_positive("cylinder", "r", r), _positive("cylinder", "h", h), _material(material))
+
+
+def strut(a, b, r: float, material: str | None = None) -> nodes.Node:
+    """Capsule of radius ``r`` around the segment from ``a`` to ``b`` (mm)."""
+    return nodes.Strut(_vector("strut", "a", a), _vector("strut", "b", b), _positive("strut", "r", r), _material(material))
+
+
+def function(lo, hi, field: Field, material: str | None = None) -> nodes.Node:
+    """Inside where ``field(x, y, z) <= 0``, within the box from ``lo`` to ``hi`` (mm)."""
+    lo, hi = _vector("function", "lo", lo), _vector("function", "hi", hi)
+    if any(h <= l for l, h in zip(lo, hi)):
+        raise DesignError("function: the box's first corner must be below the second on every axis")
+    return nodes.FunctionShape(lo, hi, nodes.Field(field), _material(material))
+
+
+def mesh(path: str | Path, material: str | None = None) -> nodes.Node:
+    """A mesh file (STL, 3MF, OBJ) in its own coordinates; relative paths from the cwd."""
+    from fgslice.design.mesh import load_mesh
+
+    found = resolve_mesh_path(str(path), None)
+    try:
+        geometry = load_mesh(found)
+    except MeshError as exc:
+        raise MeshError(f"mesh '{path}': {exc.message}", file=found, hint=exc.hint) from None
+    return nodes.MeshShape(geometry, str(found), _material(material))
+
+
+def union(*children: nodes.Node) -> nodes.Node:
+    """Union of the children; where they overlap the first child's material wins."""
+    return nodes.Union(_children("union", children))
+
+
+def intersection(*children: nodes.Node) -> nodes.Node:
+    """Intersection of the children, with the first child's materials."""
+    return nodes.Intersection(_children("intersection", children))
+
+
+def difference(first: nodes.Node, *others: nodes.Node) -> nodes.Node:
+    """``first`` minus the union of ``others``, with ``first``'s materials."""
+    return nodes.Difference(_children("difference", (first, *others)))
+
+
+def translate(offset, *children: nodes.Node) -> nodes.Node:
+    """Move the children by ``offset = (dx, dy, dz)`` (mm)."""
+    return nodes.Translate(_vector("translate", "offset", offset), _children("translate", children))
+
+
+def rotate(angles, *children: nodes.Node) -> nodes.Node:
+    """Rotate the children by ``angles = (pitch, yaw, roll)`` degrees about X, then Y, then Z."""
+    return nodes.Rotate(_vector("rotate", "angles", angles), _children("rotate", children))
+
+
+def scale(factors, *children: nodes.Node) -> nodes.Node:
+    """Stretch the children by ``factors = (sx, sy, sz)`` (or one number for all axes)."""
+    vector = (float(factors),) * 3 if isinstance(factors, (int, float)) else _vector("scale", "factors", factors)
+    if any(v == 0 for v in vector):
+        raise DesignError("scale: factors must be non-zero")
+    return nodes.Scale(vector, _children("scale", children))
+
+
+def fgrade(fields: Sequence[Field], materials: Sequence[str], *children: nodes.Node, mode: str = "prob") -> nodes.Node:
+    """Grade the children's materials: ``fields[i]`` is the raw fraction of ``materials[i]``.
+
+    Fields are evaluated in this node's frame. ``mode``: "prob" (continuous fractions) or
+    "thresh" (the material with the largest fraction takes the point).
+    """
+    fields, materials = list(fields), list(materials)
+    if not fields:
+        raise DesignError("fgrade needs at least one field")
+    if len(fields) != len(materials):
+        raise DesignError(
+            f"fgrade has {len(fields)} fields but {len(materials)} materials",
+            hint="give one field per material, in the same order",
+        )
+    if any(not isinstance(m, str) for m in materials):
+        raise DesignError("fgrade: materials must be names (strings)")
+    if len({m.lower() for m in materials}) != len(materials):
+        raise DesignError("fgrade: a material appears twice")
+    if mode not in ("prob", "thresh"):
+        raise DesignError(f'fgrade mode must be "prob" or "thresh", got {mode!r}')
+    return nodes.Fgrade([nodes.Field(f) for f in fields], materials, _children("fgrade", children), mode)
+
+
+def design(
+    root: nodes.Node,
+    materials: MaterialLibrary | str | Path | None = None,
+    *,
+    section_spacing: float = nodes.DEFAULT_SECTION_SPACING,
+) -> nodes.NodeDesign:
+    """A :class:`~fgslice.design.base.Design` from a node tree.
+
+    ``materials``: a library or a JSON materials file (extends the built-in library).
+    ``section_spacing``: sampling step (mm) of sections that are not exact.
+    """
+    if not isinstance(root, nodes.Node):
+        raise DesignError(f"design() takes a node, got {type(root).__name__}")
+    if isinstance(materials, MaterialLibrary):
+        library = materials
+    else:
+        library = builtin_library() if materials is None else load_library(materials)
+    return nodes.NodeDesign(root, library, section_spacing=_positive("design", "section_spacing", section_spacing))

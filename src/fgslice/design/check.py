@@ -1,0 +1,145 @@
+"""``fgslice check``: is a design usable, and what does it contain?
+
+:func:`check_design` samples the design on a regular grid over its bounding box, keeps
+the points inside the part (sdf <= 0) and reports the materials, the box, the node count,
+each material's fraction range over the part, and problems: raw fractions outside [0, 1]
+(with the share of the part's volume where that happens), fractions summing to 0,
+NaN/inf values, meshes that are not watertight. Errors make the design unusable
+(nothing inside, non-finite geometry); warnings do not.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from fgslice.design.base import Design, Material
+from fgslice.design.nodes import NodeDesign
+from fgslice.errors import FgsliceError
+
+DEFAULT_SAMPLES = 64
+"""Grid points along the longest side of the bounding box."""
+
+
+@dataclass
+class CheckReport:
+    """What :func:`check_design` found.
+
+    Attributes:
+        materials: the base materials, in fraction-column order.
+        bounds: axis-aligned box ``((minx, miny, minz), (maxx, maxy, maxz))``, mm.
+        node_count: nodes in the design tree (0 when not a node tree).
+        fraction_ranges: material name -> (min, max) normalized fraction over the part.
+        inside_samples: grid points found inside the part.
+        spacing: grid step used, mm.
+        warnings: problems that still allow slicing.
+        errors: problems that make the design unusable.
+    """
+
+    materials: list[Material]
+    bounds: tuple[tuple[float, float, float], tuple[float, float, float]]
+    node_count: int
+    fraction_ranges: dict[str, tuple[float, float]] = field(default_factory=dict)
+    inside_samples: int = 0
+    spacing: float = 0.0
+    warnings: list[str] = field(default_factory=list)
+    errors: list[str] = field(default_factory=list)
+
+    @property
+    def usable(self) -> bool:
+        """True when there are no errors (the CLI exits 0)."""
+        return not self.errors
+
+
+def _grid(bounds, samples: int):
+    lo, hi = np.asarray(bounds[0], dtype=float), np.asarray(bounds[1], dtype=float)
+    spacing = float(np.max(hi - lo)) / samples
+    axes = [lo[i] + (np.arange(max(1, int(np.ceil((hi[i] - lo[i]) / spacing)))) + 0.5) * spacing for i in range(3)]
+    x, y, z = np.meshgrid(*axes, indexing="ij")
+    return x.ravel(), y.ravel(), z.ravel(), spacing
+
+
+def _share(mask: np.ndarray) -> str:
+    return f"{100.0 * np.count_nonzero(mask) / mask.size:.1f}%"
+
+
+def check_design(design: Design, *, samples: int = DEFAULT_SAMPLES) -> CheckReport:
+    """Inspect ``design`` on a grid of about ``samples`` points along its longest side."""
+    bounds = design.bounds()
+    node_count = design.node_count if isinstance(design, NodeDesign) else 0
+    report = CheckReport(list(design.materials), bounds, node_count)
+    if isinstance(design, NodeDesign):
+        for mesh in design.meshes:
+            if not mesh.geometry.watertight:
+                report.warnings.append(
+                    f"mesh {mesh.path} is not watertight: inside/outside may be wrong near its holes"
+                )
+    lo, hi = np.asarray(bounds[0]), np.asarray(bounds[1])
+    if not np.all(np.isfinite(lo)) or not np.all(np.isfinite(hi)) or np.any(hi <= lo):
+        report.errors.append(f"the design is empty or unbounded (bounding box {bounds})")
+        return report
+    x, y, z, report.spacing = _grid(bounds, samples)
+    try:
+        sdf = np.asarray(design.sdf(x, y, z))
+    except FgsliceError as exc:
+        report.errors.append(f"geometry cannot be evaluated: {exc.message}")
+        return report
+    bad = ~np.isfinite(sdf)
+    if bad.any():
+        report.errors.append(f"the signed distance is NaN or infinite at {_share(bad)} of the box's samples")
+    inside = np.flatnonzero(sdf <= 0)
+    report.inside_samples = int(inside.size)
+    if inside.size == 0:
+        report.errors.append("no sample point lies inside the part: the design is empty at this resolution")
+        return report
+    x, y, z = x[inside], y[inside], z[inside]
+    try:
+        fractions = design.fractions(x, y, z)
+        raw = design.raw_fractions(x, y, z) if isinstance(design, NodeDesign) else fractions
+    except FgsliceError as exc:
+        report.errors.append(f"materials cannot be evaluated: {exc.message}")
+        return report
+    for i, material in enumerate(report.materials):
+        column = fractions[:, i]
+        report.fraction_ranges[material.name] = (float(column.min()), float(column.max()))
+    finite = np.isfinite(raw)
+    if not finite.all():
+        report.warnings.append(
+            f"raw fractions are NaN or infinite over {_share(~finite.all(axis=1))} of the part (treated as 0)"
+        )
+    raw = np.where(finite, raw, 0.0)
+    for i, material in enumerate(report.materials):
+        outside = (raw[:, i] < -1e-9) | (raw[:, i] > 1 + 1e-9)
+        if outside.any():
+            report.warnings.append(
+                f"raw fraction of '{material.name}' leaves [0, 1] over {_share(outside)} of the part "
+                f"(range {raw[:, i].min():.3g} to {raw[:, i].max():.3g}; clamped)"
+            )
+    zero = np.clip(raw, 0, 1).sum(axis=1) <= 0
+    if zero.any():
+        report.warnings.append(
+            f"fractions sum to 0 over {_share(zero)} of the part (the first material, "
+            f"'{report.materials[0].name}', is used there)"
+        )
+    return report
+
+
+def format_report(report: CheckReport) -> str:
+    """The report as plain text lines for the terminal."""
+    (x0, y0, z0), (x1, y1, z1) = report.bounds
+    lines = ["materials:"]
+    for m in report.materials:
+        r, g, b, a = (round(255 * c) for c in m.rgba)
+        lo, hi = report.fraction_ranges.get(m.name, (float("nan"), float("nan")))
+        lines.append(f"  {m.name:<12} #{r:02x}{g:02x}{b:02x} alpha {a:3d}   fraction {lo:.3f} .. {hi:.3f}")
+    lines.append(
+        f"bounding box: x {x0:.3f} .. {x1:.3f}, y {y0:.3f} .. {y1:.3f}, z {z0:.3f} .. {z1:.3f} mm "
+        f"({x1 - x0:.2f} x {y1 - y0:.2f} x {z1 - z0:.2f} mm)"
+    )
+    lines.append(f"nodes: {report.node_count}")
+    lines.append(f"samples inside the part: {report.inside_samples} (grid step {report.spacing:.3g} mm)")
+    lines.extend(f"warning: {w}" for w in report.warnings)
+    lines.extend(f"error: {e}" for e in report.errors)
+    lines.append("usable: yes" if report.usable else "usable: no")
+    return "\n".join(lines)

@@ -1,0 +1,742 @@
+"""The design node tree: geometry primitives, booleans, transforms and material grading.
+
+Every node works in its own frame (millimetres). A node provides
+
+* ``sdf(x, y, z)``: signed distance, negative inside (broadcasting numpy arrays);
+* ``bounds()``: a tight axis-aligned box ``(lo, hi)`` (3-vectors, mm);
+* ``section(z, spacing)``: the outline at height ``z`` as a shapely geometry. Exact
+  (analytic polygons, vertices within ``spacing / 20`` of the true curve) for sphere,
+  cube, rectprism, cylinder and strut; exact for meshes (delegated); booleans combine the
+  sections of their children; translations, scalings and rotations that keep Z vertical
+  transform the child's section. Anything else (``function``, tilting rotations) is
+  sampled with :func:`fgslice.design.sampled.section_from_sdf` at ``spacing``;
+* ``raw(x, y, z, ctx, columns)``: raw (unclamped) material fractions, ``(N, k)`` for 1-D
+  arrays, where ``ctx`` is the enclosing fgrade's fractions at those points (or None).
+
+Material rules: a primitive naming a material has fraction 1 of it; one without a name
+takes the nearest enclosing ``fgrade``'s fractions, and outside any fgrade the design's
+first material. Where the children of a union (or fgrade) overlap, the first child that
+contains the point decides; outside all children, the nearest one. ``intersection`` and
+``difference`` take their first child's materials.
+
+:class:`NodeDesign` wraps a tree into a :class:`fgslice.design.base.Design`.
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+import shapely.affinity
+
+from fgslice.design.base import Design, Material
+from fgslice.errors import DesignError, FieldError, FgsliceError
+
+MAX_DEPTH = 200
+"""Deepest nesting of nodes a design may have (deeper trees would exhaust the stack)."""
+
+DEFAULT_SECTION_SPACING = 0.1
+"""Default sampling step (mm) of sampled sections: a quarter of a 0.4 mm bead."""
+
+DEFAULT_MATERIAL = Material("default", (0.5, 0.5, 0.5, 1.0))
+"""The material of a design that names none."""
+
+_EMPTY = shapely.MultiPolygon()
+
+
+@dataclass(frozen=True)
+class Where:
+    """Where a node was written: file, 1-based line and column, and that line's text."""
+
+    file: str | None = None
+    line: int | None = None
+    column: int | None = None
+    source_line: str | None = None
+
+    def error_kwargs(self) -> dict:
+        """Keyword arguments locating an :class:`FgsliceError` here."""
+        return {"file": self.file, "line": self.line, "column": self.column, "source_line": self.source_line}
+
+
+NOWHERE = Where()
+
+
+class Field:
+    """A scalar field over a node's frame: a compiled expression or a Python callable.
+
+    Callables take numpy arrays ``(x, y, z)`` — or ``(x, y, z, d)`` when they accept a
+    fourth argument, ``d`` being the signed distance of the fgrade's child — and return an
+    array broadcastable to the points' shape (or a scalar).
+    """
+
+    def __init__(self, source: str | Callable, where: Where = NOWHERE) -> None:
+        self.where = where
+        if isinstance(source, str):
+            from fgslice.design.expressions import compile_expression
+
+            line = where.line if where.line is not None else 1
+            column = where.column if where.column is not None else 1
+            self._fn = compile_expression(source, file=where.file, line=line, column=column)
+            self.uses_d = "d" in self._fn.variables
+            self.text = source
+            self._callable = False
+        elif callable(source):
+            self._fn = source
+            self.uses_d = _accepts_four(source)
+            self.text = getattr(source, "__name__", "callable")
+            self._callable = True
+        else:
+            raise DesignError(
+                f"a material field must be an expression string or a callable, not {type(source).__name__}",
+                **where.error_kwargs(),
+            )
+
+    def __call__(self, x: np.ndarray, y: np.ndarray, z: np.ndarray, d: np.ndarray | None = None) -> np.ndarray:
+        """The field's values at the points, broadcast to the points' shape (float64)."""
+        if not self._callable:
+            value = self._fn(x, y, z, d) if self.uses_d else self._fn(x, y, z)
+            return np.broadcast_to(np.asarray(value, dtype=float), np.shape(x))
+        try:
+            value = self._fn(x, y, z, d) if self.uses_d else self._fn(x, y, z)
+            return np.broadcast_to(np.asarray(value, dtype=float), np.shape(x))
+        except FgsliceError:
+            raise
+        except Exception as exc:
+            raise FieldError(
+                f"material field '{self.text}' failed: {type(exc).__name__}: {exc}",
+                hint="a field callable takes numpy arrays x, y, z (and optionally d) and returns an array of their shape",
+                **self.where.error_kwargs(),
+            ) from None
+
+
+def _accepts_four(fn: Callable) -> bool:
+    """Whether ``fn`` can be called with four positional arguments."""
+    try:
+        inspect.signature(fn).bind(0, 0, 0, 0)
+    except TypeError:
+        return False
+    except ValueError:
+        return False
+    return True
+
+
+class Columns:
+    """Maps material names (lower case) to fraction columns; ``k`` columns in all."""
+
+    def __init__(self, names: Sequence[str]) -> None:
+        self.index = {name.lower(): i for i, name in enumerate(names)}
+        self.k = len(names)
+
+    def one_hot(self, n: int, name: str | None) -> np.ndarray:
+        """``(n, k)`` rows of fraction 1 of ``name`` (the first material when None)."""
+        out = np.zeros((n, self.k))
+        out[:, 0 if name is None else self.index[name.lower()]] = 1.0
+        return out
+
+
+# --------------------------------------------------------------------------- polygons
+
+
+def _segments(radius: float, spacing: float) -> int:
+    """Vertices of a circle of ``radius`` whose chords stay within ``spacing / 20``."""
+    tol = spacing / 20.0
+    if radius <= tol:
+        return 96
+    return int(min(4096, max(96, math.ceil(math.pi / math.acos(1.0 - tol / radius)))))
+
+
+def _circle(cx: float, cy: float, radius: float, spacing: float) -> shapely.Polygon:
+    """A polygon inscribed in the circle (vertices on the circle)."""
+    t = np.linspace(0.0, 2.0 * np.pi, _segments(radius, spacing), endpoint=False)
+    return shapely.Polygon(np.column_stack([cx + radius * np.cos(t), cy + radius * np.sin(t)]))
+
+
+def as_multipolygon(geom: shapely.Geometry) -> shapely.MultiPolygon:
+    """The polygonal part of ``geom`` as a valid MultiPolygon."""
+    if geom is None or geom.is_empty:
+        return _EMPTY
+    if not geom.is_valid:
+        geom = shapely.make_valid(geom)
+    polys = [p for g in shapely.get_parts(geom) for p in shapely.get_parts(g) if p.geom_type == "Polygon"]
+    polys = [p for p in polys if not p.is_empty and p.area > 0]
+    return shapely.MultiPolygon(polys) if polys else _EMPTY
+
+
+def _box_sdf(x, y, z, half) -> np.ndarray:
+    """Exact signed distance to the box ``|x| <= half[0]``, ... centered at the origin."""
+    qx = np.abs(x) - half[0]
+    qy = np.abs(y) - half[1]
+    qz = np.abs(z) - half[2]
+    outside = np.sqrt(np.maximum(qx, 0) ** 2 + np.maximum(qy, 0) ** 2 + np.maximum(qz, 0) ** 2)
+    return outside + np.minimum(np.maximum(np.maximum(qx, qy), qz), 0)
+
+
+# ------------------------------------------------------------------------------ nodes
+
+
+class Node:
+    """Base of all nodes: children, source location, cached bounds, section dispatch."""
+
+    kind = "node"
+
+    def __init__(self, children: Sequence[Node] = (), where: Where = NOWHERE) -> None:
+        self.children = tuple(children)
+        self.where = where
+
+    def sdf(self, x, y, z) -> np.ndarray:
+        """Signed distance (mm), negative inside."""
+        raise NotImplementedError
+
+    def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        raise NotImplementedError
+
+    @functools.cached_property
+    def _cached_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        return self._bounds()
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(lo, hi)``: tight axis-aligned bounds (mm); ``lo > hi`` somewhere when empty."""
+        return self._cached_bounds
+
+    def section(self, z: float, spacing: float) -> shapely.Geometry:
+        """Outline at height ``z`` (see the module docstring for exactness)."""
+        lo, hi = self.bounds()
+        if not (lo[2] <= z <= hi[2]) or np.any(lo > hi):
+            return _EMPTY
+        return self._section(z, spacing)
+
+    def _section(self, z: float, spacing: float) -> shapely.Geometry:
+        return sampled_section(self, z, spacing)
+
+    def raw(self, x, y, z, ctx, columns: Columns) -> np.ndarray:
+        """Raw fractions ``(N, k)`` at 1-D points; ``ctx`` = enclosing fgrade's fractions."""
+        return self.children[0].raw(x, y, z, ctx, columns)
+
+
+def sampled_section(node: Node, z: float, spacing: float) -> shapely.Geometry:
+    """Outline of ``node`` at ``z`` by marching squares on its sdf at ``spacing`` mm."""
+    from fgslice.design.sampled import section_from_sdf
+
+    lo, hi = node.bounds()
+    pad = 2.0 * spacing
+    bounds2d = (lo[0] - pad, lo[1] - pad, hi[0] + pad, hi[1] + pad)
+    return section_from_sdf(lambda x, y: node.sdf(x, y, np.full(np.shape(x), z)), bounds2d, spacing)
+
+
+class Primitive(Node):
+    """A leaf shape centered at the origin, optionally made of a named material."""
+
+    def __init__(self, material: str | None = None, where: Where = NOWHERE) -> None:
+        super().__init__((), where)
+        self.material = material
+
+    def raw(self, x, y, z, ctx, columns: Columns) -> np.ndarray:
+        if self.material is None and ctx is not None:
+            return ctx
+        return columns.one_hot(np.shape(x)[0], self.material)
+
+
+class Sphere(Primitive):
+    """Ball of radius ``r`` centered at the origin."""
+
+    kind = "sphere"
+
+    def __init__(self, r: float, material: str | None = None, where: Where = NOWHERE) -> None:
+        super().__init__(material, where)
+        self.r = float(r)
+
+    def sdf(self, x, y, z):
+        return np.sqrt(x * x + y * y + z * z) - self.r
+
+    def _bounds(self):
+        return np.full(3, -self.r), np.full(3, self.r)
+
+    def _section(self, z, spacing):
+        rho2 = self.r**2 - z * z
+        return _circle(0.0, 0.0, math.sqrt(rho2), spacing) if rho2 > 0 else _EMPTY
+
+
+class Box(Primitive):
+    """Rectangular prism of sizes ``(sx, sy, sz)`` centered at the origin (cube: equal sizes)."""
+
+    kind = "rectprism"
+
+    def __init__(self, size: Sequence[float], material: str | None = None, where: Where = NOWHERE) -> None:
+        super().__init__(material, where)
+        self.half = np.asarray(size, dtype=float) / 2.0
+
+    def sdf(self, x, y, z):
+        return _box_sdf(x, y, z, self.half)
+
+    def _bounds(self):
+        return -self.half, self.half.copy()
+
+    def _section(self, z, spacing):
+        hx, hy = self.half[:2]
+        return shapely.box(-hx, -hy, hx, hy)
+
+
+class Cylinder(Primitive):
+    """Cylinder of radius ``r`` along Z from ``-h/2`` to ``h/2``."""
+
+    kind = "cylinder"
+
+    def __init__(self, r: float, h: float, material: str | None = None, where: Where = NOWHERE) -> None:
+        super().__init__(material, where)
+        self.r = float(r)
+        self.h = float(h)
+
+    def sdf(self, x, y, z):
+        dr = np.sqrt(x * x + y * y) - self.r
+        dz = np.abs(z) - self.h / 2.0
+        return np.minimum(np.maximum(dr, dz), 0) + np.sqrt(np.maximum(dr, 0) ** 2 + np.maximum(dz, 0) ** 2)
+
+    def _bounds(self):
+        return np.array([-self.r, -self.r, -self.h / 2]), np.array([self.r, self.r, self.h / 2])
+
+    def _section(self, z, spacing):
+        return _circle(0.0, 0.0, self.r, spacing)
+
+
+class Strut(Primitive):
+    """Capsule: all points within ``r`` of the segment from ``a`` to ``b``."""
+
+    kind = "strut"
+
+    def __init__(self, a, b, r: float, material: str | None = None, where: Where = NOWHERE) -> None:
+        super().__init__(material, where)
+        self.a = np.asarray(a, dtype=float)
+        self.b = np.asarray(b, dtype=float)
+        self.r = float(r)
+
+    def sdf(self, x, y, z):
+        ba = self.b - self.a
+        px, py, pz = x - self.a[0], y - self.a[1], z - self.a[2]
+        length2 = float(ba @ ba)
+        t = 0.0 if length2 == 0 else np.clip((px * ba[0] + py * ba[1] + pz * ba[2]) / length2, 0.0, 1.0)
+        return np.sqrt((px - t * ba[0]) ** 2 + (py - t * ba[1]) ** 2 + (pz - t * ba[2]) ** 2) - self.r
+
+    def _bounds(self):
+        return np.minimum(self.a, self.b) - self.r, np.maximum(self.a, self.b) + self.r
+
+    def _section(self, z, spacing):
+        parts = []
+        for end in (self.a, self.b):
+            rho2 = self.r**2 - (z - end[2]) ** 2
+            if rho2 > 0:
+                parts.append(_circle(end[0], end[1], math.sqrt(rho2), spacing))
+        parts.append(self._body_section(z, spacing))
+        return shapely.union_all([p for p in parts if not p.is_empty])
+
+    def _body_section(self, z: float, spacing: float) -> shapely.Geometry:
+        """Section of the capsule's cylindrical body (between the end planes).
+
+        With u the unit axis, rho = |u_xy|, s and n the in-plane coordinates along and
+        across u_xy measured from a, and w = z - a_z: the squared distance to the axis is
+        ``n^2 + (s uz - w rho)^2`` and the axial coordinate is ``s rho + w uz``.
+        """
+        ba = self.b - self.a
+        length = float(np.linalg.norm(ba))
+        if length == 0:
+            return _EMPTY
+        u = ba / length
+        w = z - self.a[2]
+        rho = math.hypot(u[0], u[1])
+        if rho < 1e-12:
+            axial = w * u[2]
+            return _circle(self.a[0], self.a[1], self.r, spacing) if 0 <= axial <= length else _EMPTY
+        s_lo, s_hi = sorted(((0 - w * u[2]) / rho, (length - w * u[2]) / rho))
+        if abs(u[2]) > 1e-12:
+            e_lo, e_hi = sorted(((w * rho - self.r) / u[2], (w * rho + self.r) / u[2]))
+            s_lo, s_hi = max(s_lo, e_lo), min(s_hi, e_hi)
+        elif abs(w) >= self.r:
+            return _EMPTY
+        if s_hi <= s_lo:
+            return _EMPTY
+        n_samples = max(2, _segments(self.r, spacing) // 2)
+        s = s_lo + (s_hi - s_lo) * (1 - np.cos(np.linspace(0, np.pi, n_samples))) / 2
+        n = np.sqrt(np.maximum(self.r**2 - (s * u[2] - w * rho) ** 2, 0))
+        along = np.array([u[0], u[1]]) / rho
+        across = np.array([-along[1], along[0]])
+        ss = np.concatenate([s, s[::-1]])
+        nn = np.concatenate([n, -n[::-1]])
+        pts = self.a[:2] + ss[:, None] * along + nn[:, None] * across
+        poly = shapely.Polygon(pts)
+        return poly if poly.is_valid else shapely.make_valid(poly)
+
+
+class FunctionShape(Primitive):
+    """``function(lo, hi, expr)``: inside where the field is <= 0, within the box lo..hi."""
+
+    kind = "function"
+
+    def __init__(self, lo, hi, field: Field, material: str | None = None, where: Where = NOWHERE) -> None:
+        super().__init__(material, where)
+        self.lo = np.asarray(lo, dtype=float)
+        self.hi = np.asarray(hi, dtype=float)
+        self.field = field
+        if field.uses_d:
+            raise DesignError(
+                "'d' is only defined in fgrade expressions, not in function(...) shapes",
+                **field.where.error_kwargs(),
+            )
+
+    def sdf(self, x, y, z):
+        center = (self.lo + self.hi) / 2
+        box = _box_sdf(x - center[0], y - center[1], z - center[2], (self.hi - self.lo) / 2)
+        return np.maximum(self.field(x, y, z), box)
+
+    def _bounds(self):
+        return self.lo.copy(), self.hi.copy()
+
+
+class MeshShape(Primitive):
+    """A triangle mesh in its own coordinates (see :mod:`fgslice.design.mesh`)."""
+
+    kind = "mesh"
+
+    def __init__(self, geometry, path: str, material: str | None = None, where: Where = NOWHERE) -> None:
+        super().__init__(material, where)
+        self.geometry = geometry
+        self.path = path
+
+    def sdf(self, x, y, z):
+        x, y, z = np.broadcast_arrays(x, y, z)
+        return self.geometry.sdf(x, y, z)
+
+    def _bounds(self):
+        lo, hi = self.geometry.bounds()
+        return np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+
+    def _section(self, z, spacing):
+        return self.geometry.section(z)
+
+
+def _union_raw(children: Sequence[Node], x, y, z, ctx, columns: Columns) -> np.ndarray:
+    """Fractions of a union: first child containing the point, else the nearest child."""
+    if len(children) == 1:
+        return children[0].raw(x, y, z, ctx, columns)
+    d = np.stack([np.broadcast_to(c.sdf(x, y, z), np.shape(x)) for c in children])
+    inside = d <= 0
+    owner = np.where(inside.any(axis=0), np.argmax(inside, axis=0), np.argmin(d, axis=0))
+    out = np.empty((np.shape(x)[0], columns.k))
+    for i, child in enumerate(children):
+        sel = np.flatnonzero(owner == i)
+        if sel.size:
+            sub_ctx = None if ctx is None else ctx[sel]
+            out[sel] = child.raw(x[sel], y[sel], z[sel], sub_ctx, columns)
+    return out
+
+
+class Union(Node):
+    """Union of the children (min of their sdfs)."""
+
+    kind = "union"
+
+    def sdf(self, x, y, z):
+        return functools.reduce(np.minimum, (c.sdf(x, y, z) for c in self.children))
+
+    def _bounds(self):
+        boxes = [c.bounds() for c in self.children]
+        boxes = [b for b in boxes if not np.any(b[0] > b[1])] or boxes
+        return np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)
+
+    def _section(self, z, spacing):
+        return shapely.union_all([c.section(z, spacing) for c in self.children])
+
+    def raw(self, x, y, z, ctx, columns):
+        return _union_raw(self.children, x, y, z, ctx, columns)
+
+
+class Intersection(Node):
+    """Intersection of the children (max of their sdfs); materials of the first child."""
+
+    kind = "intersection"
+
+    def sdf(self, x, y, z):
+        return functools.reduce(np.maximum, (c.sdf(x, y, z) for c in self.children))
+
+    def _bounds(self):
+        boxes = [c.bounds() for c in self.children]
+        return np.max([b[0] for b in boxes], axis=0), np.min([b[1] for b in boxes], axis=0)
+
+    def _section(self, z, spacing):
+        return functools.reduce(shapely.intersection, (c.section(z, spacing) for c in self.children))
+
+
+class Difference(Node):
+    """First child minus the others: ``max(a, -min(others))``; materials of the first child."""
+
+    kind = "difference"
+
+    def sdf(self, x, y, z):
+        first = self.children[0].sdf(x, y, z)
+        if len(self.children) == 1:
+            return first
+        rest = functools.reduce(np.minimum, (c.sdf(x, y, z) for c in self.children[1:]))
+        return np.maximum(first, -rest)
+
+    def _bounds(self):
+        return self.children[0].bounds()
+
+    def _section(self, z, spacing):
+        first = self.children[0].section(z, spacing)
+        if len(self.children) == 1 or first.is_empty:
+            return first
+        return shapely.difference(first, shapely.union_all([c.section(z, spacing) for c in self.children[1:]]))
+
+
+class Affine(Node):
+    """A linear map ``p = M q + t`` from the child's frame ``q`` to this node's frame ``p``.
+
+    Sections are exact when ``M`` keeps the Z axis vertical (no tilt): the child's
+    section at the corresponding height, mapped in 2D. Otherwise they are sampled.
+    """
+
+    def __init__(self, matrix, offset, child: Node | Sequence[Node], where: Where = NOWHERE) -> None:
+        children = (child,) if isinstance(child, Node) else tuple(child)
+        super().__init__(children, where)
+        self.matrix = np.asarray(matrix, dtype=float)
+        self.offset = np.asarray(offset, dtype=float)
+        self._inverse = np.linalg.inv(self.matrix)
+        self._stretch = np.linalg.svd(self.matrix, compute_uv=False)
+        self._body = children[0] if len(children) == 1 else Union(children, where)
+
+    def local(self, x, y, z):
+        """This node's coordinates mapped into the child's frame."""
+        m = self._inverse
+        px, py, pz = x - self.offset[0], y - self.offset[1], z - self.offset[2]
+        return (
+            m[0, 0] * px + m[0, 1] * py + m[0, 2] * pz,
+            m[1, 0] * px + m[1, 1] * py + m[1, 2] * pz,
+            m[2, 0] * px + m[2, 1] * py + m[2, 2] * pz,
+        )
+
+    def sdf(self, x, y, z):
+        # scaled by the map's smallest stretch so the result stays a lower bound on distance
+        return self._body.sdf(*self.local(x, y, z)) * float(self._stretch.min())
+
+    def _bounds(self):
+        lo, hi = self._body.bounds()
+        if np.any(lo > hi):
+            return lo + self.offset, hi + self.offset
+        corners = np.array([[(lo, hi)[(i >> j) & 1][j] for j in range(3)] for i in range(8)])
+        mapped = corners @ self.matrix.T + self.offset
+        return mapped.min(axis=0), mapped.max(axis=0)
+
+    def _section(self, z, spacing):
+        m = np.where(np.abs(self.matrix) < 1e-12, 0.0, self.matrix)
+        if m[0, 2] != 0 or m[1, 2] != 0 or m[2, 0] != 0 or m[2, 1] != 0:
+            return sampled_section(self, z, spacing)
+        child = self._body.section((z - self.offset[2]) / m[2, 2], spacing / float(self._stretch.max()))
+        if child.is_empty:
+            return child
+        return shapely.affinity.affine_transform(
+            child, [m[0, 0], m[0, 1], m[1, 0], m[1, 1], self.offset[0], self.offset[1]]
+        )
+
+    def raw(self, x, y, z, ctx, columns):
+        return self._body.raw(*self.local(x, y, z), ctx, columns)
+
+
+class Translate(Affine):
+    """``translate(dx, dy, dz)``: moves the children by the offset (mm)."""
+
+    kind = "translate"
+
+    def __init__(self, offset, child, where: Where = NOWHERE) -> None:
+        super().__init__(np.eye(3), offset, child, where)
+
+
+def rotation_matrix(pitch: float, yaw: float, roll: float) -> np.ndarray:
+    """``Rz(roll) @ Ry(yaw) @ Rx(pitch)`` (degrees, right-hand rule about fixed X, Y, Z).
+
+    Applied to a child, it turns it first by ``pitch`` about X, then by ``yaw`` about Y,
+    then by ``roll`` about Z, all about the axes of the parent frame.
+    """
+    a, b, c = np.radians([pitch, yaw, roll])
+    rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+    ry = np.array([[np.cos(b), 0, np.sin(b)], [0, 1, 0], [-np.sin(b), 0, np.cos(b)]])
+    rz = np.array([[np.cos(c), -np.sin(c), 0], [np.sin(c), np.cos(c), 0], [0, 0, 1]])
+    return rz @ ry @ rx
+
+
+class Rotate(Affine):
+    """``rotate(pitch, yaw, roll)`` in degrees; see :func:`rotation_matrix` for the order."""
+
+    kind = "rotate"
+
+    def __init__(self, angles, child, where: Where = NOWHERE) -> None:
+        super().__init__(rotation_matrix(*angles), np.zeros(3), child, where)
+
+
+class Scale(Affine):
+    """``scale(sx, sy, sz)``: stretches the children along X, Y, Z (factors non-zero).
+
+    The sdf is ``child_sdf(p / s) * min|s|``: exact for uniform scaling, a lower bound on
+    the distance otherwise (the zero level set is exact).
+    """
+
+    kind = "scale"
+
+    def __init__(self, factors, child, where: Where = NOWHERE) -> None:
+        super().__init__(np.diag(np.asarray(factors, dtype=float)), np.zeros(3), child, where)
+
+
+class Fgrade(Node):
+    """Material grading: fractions ``fields`` of ``materials`` over the children.
+
+    Fields see this node's own frame. ``d`` is the children's (union) signed distance.
+    ``mode``: ``"prob"`` (default) keeps the continuous fractions; ``"thresh"`` gives
+    each point entirely to the material with the largest clamped fraction (first on ties).
+    """
+
+    kind = "fgrade"
+
+    def __init__(
+        self,
+        fields: Sequence[Field],
+        materials: Sequence[str],
+        children: Sequence[Node],
+        mode: str = "prob",
+        where: Where = NOWHERE,
+    ) -> None:
+        super().__init__(children, where)
+        self.fields = tuple(fields)
+        self.materials = tuple(materials)
+        self.mode = mode
+        self._body = children[0] if len(children) == 1 else Union(children, where)
+
+    def sdf(self, x, y, z):
+        return self._body.sdf(x, y, z)
+
+    def _bounds(self):
+        return self._body.bounds()
+
+    def _section(self, z, spacing):
+        return self._body.section(z, spacing)
+
+    def own_fractions(self, x, y, z, columns: Columns) -> np.ndarray:
+        """This node's raw fractions ``(N, k)`` at 1-D points of its frame."""
+        d = self._body.sdf(x, y, z) if any(f.uses_d for f in self.fields) else None
+        out = np.zeros((np.shape(x)[0], columns.k))
+        for field, name in zip(self.fields, self.materials):
+            out[:, columns.index[name.lower()]] = field(x, y, z, d)
+        if self.mode == "thresh":
+            clamped = np.clip(np.nan_to_num(out, nan=0.0), 0.0, 1.0)
+            cols = [columns.index[name.lower()] for name in self.materials]
+            winner = np.asarray(cols)[np.argmax(clamped[:, cols], axis=1)]
+            out = np.zeros_like(out)
+            out[np.arange(out.shape[0]), winner] = 1.0
+        return out
+
+    def raw(self, x, y, z, ctx, columns):
+        return _union_raw(self.children, x, y, z, self.own_fractions(x, y, z, columns), columns)
+
+
+# ----------------------------------------------------------------------------- design
+
+
+def walk(root: Node):
+    """Nodes in document order (pre-order) with their depth, without recursion."""
+    stack = [(root, 1)]
+    while stack:
+        node, depth = stack.pop()
+        yield node, depth
+        stack.extend((c, depth + 1) for c in reversed(node.children))
+
+
+class NodeDesign(Design):
+    """A :class:`Design` evaluated from a node tree.
+
+    Args:
+        root: the tree.
+        library: resolves material names (:class:`fgslice.design.materials.MaterialLibrary`);
+            the built-in library when None.
+        hint_bounds: ``root(...)``'s box hint ``((minx, miny, minz), (maxx, maxy, maxz))``.
+        voxel_size: ``root(...)``'s voxel size hint (mm); not used for evaluation.
+        section_spacing: step (mm) of sampled sections; default a quarter of a 0.4 mm bead.
+    """
+
+    def __init__(
+        self,
+        root: Node,
+        library=None,
+        *,
+        hint_bounds=None,
+        voxel_size=None,
+        section_spacing: float = DEFAULT_SECTION_SPACING,
+        source: str | None = None,
+    ) -> None:
+        from fgslice.design.materials import builtin_library
+
+        library = library or builtin_library()
+        self.root = root
+        self.hint_bounds = hint_bounds
+        self.voxel_size = voxel_size
+        self.section_spacing = float(section_spacing)
+        self.source = source
+        names: list[str] = []
+        materials: list[Material] = []
+        self.node_count = 0
+        self.meshes: list[MeshShape] = []
+        for node, depth in walk(root):
+            self.node_count += 1
+            if depth > MAX_DEPTH:
+                raise DesignError(
+                    f"the design nests more than {MAX_DEPTH} levels deep",
+                    hint="flatten the tree: a union takes any number of children",
+                    **node.where.error_kwargs(),
+                )
+            if isinstance(node, MeshShape):
+                self.meshes.append(node)
+            used = node.materials if isinstance(node, Fgrade) else ()
+            if isinstance(node, Primitive) and node.material is not None:
+                used = (node.material,)
+            for name in used:
+                material = library.get(name, **node.where.error_kwargs())
+                if material.name.lower() not in (n.lower() for n in names):
+                    names.append(material.name)
+                    materials.append(material)
+        if not materials:
+            names, materials = [DEFAULT_MATERIAL.name], [DEFAULT_MATERIAL]
+        self._materials = materials
+        self.columns = Columns(names)
+
+    @property
+    def materials(self) -> list[Material]:
+        return list(self._materials)
+
+    def sdf(self, x, y, z) -> np.ndarray:
+        x, y, z = (np.asarray(v, dtype=float) for v in (x, y, z))
+        shape = np.broadcast_shapes(x.shape, y.shape, z.shape)
+        return np.broadcast_to(self.root.sdf(x, y, z), shape)
+
+    def raw_fractions(self, x, y, z) -> np.ndarray:
+        """Raw (unclamped, unnormalized) fractions, shape ``broadcast + (k,)``."""
+        x, y, z = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (x, y, z)))
+        shape = x.shape
+        raw = self.root.raw(x.ravel(), y.ravel(), z.ravel(), None, self.columns)
+        return raw.reshape(shape + (self.columns.k,))
+
+    def fractions(self, x, y, z) -> np.ndarray:
+        raw = self.raw_fractions(x, y, z)
+        f = np.clip(np.nan_to_num(raw, nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
+        total = f.sum(axis=-1, keepdims=True)
+        empty = total[..., 0] <= 0
+        f[empty, 0] = 1.0
+        total[empty] = 1.0
+        return f / total
+
+    def bounds(self):
+        lo, hi = self.root.bounds()
+        return tuple(float(v) for v in lo), tuple(float(v) for v in hi)
+
+    def section(self, z: float, spacing: float | None = None) -> shapely.MultiPolygon:
+        """Outline at height ``z``; ``spacing`` (mm) for sampled parts, default ``section_spacing``."""
+        return as_multipolygon(self.root.section(float(z), spacing or self.section_spacing))
