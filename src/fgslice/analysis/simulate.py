@@ -339,3 +339,72 @@ def simulate_trace(
         palette_size=palette_size,
         model=model,
     )
+
+
+def _feed_mm_s(role, layer_index: int, settings) -> float:
+    """Printing speed of a path, mm/s (first-layer speed, else by role)."""
+    from fgslice.toolpaths.paths import Role
+
+    if layer_index == 0:
+        return settings.first_layer_speed
+    if role is Role.EXTERNAL_PERIMETER:
+        return settings.outer_wall_speed
+    if role is Role.INTERNAL_INFILL:
+        return settings.infill_speed
+    return settings.print_speed
+
+
+def trace_from_plans(plans, centers: np.ndarray, settings) -> SegmentTrace:
+    """The moves a plan will make, without writing G-code (predictions, calibration).
+
+    Each path vertex pair is an extrusion of ``length x bead_area(width, height)`` mm³ at
+    the role's speed; a travel at ``travel_speed`` joins consecutive paths. The
+    commanded composition is ``centers[color]`` of the latest :class:`SetState` (the
+    first path's color before any); its temperature follows the linear mapping.
+
+    Args:
+        plans: iterable of :class:`fgslice.planning.plan.LayerPlan`.
+        centers: ``(N, k)`` palette centers (:attr:`Palette.centers`).
+        settings: speeds and temperatures.
+    """
+    from fgslice.planning.plan import SetState
+    from fgslice.toolpaths.paths import Role, bead_area
+
+    non_part = {Role.SKIRT, Role.WIPE_TOWER, Role.CUSTOM}
+    rows = []   # (xy, z, (area, speed, color, part, layer, height)) per path or travel
+    color = None
+    last = None
+    for plan in plans:
+        for step in plan.steps:
+            if isinstance(step, SetState):
+                color = step.color
+                continue
+            color = step.color if color is None else color
+            xy = step.vertices
+            if last is not None:
+                travel = (0.0, settings.travel_speed, color, False, plan.index, plan.height)
+                rows.append((np.array([last, xy[0]]), plan.z, travel))
+            speed = _feed_mm_s(step.role, plan.index, settings)
+            extrusion = (bead_area(step.width, step.height), speed, color, step.role not in non_part, plan.index, plan.height)
+            rows.append((xy, plan.z, extrusion))
+            last = xy[-1]
+    counts = np.array([len(r[0]) - 1 for r in rows])
+    start = np.concatenate([np.column_stack([r[0][:-1], np.full(len(r[0]) - 1, r[1])]) for r in rows])
+    end = np.concatenate([np.column_stack([r[0][1:], np.full(len(r[0]) - 1, r[1])]) for r in rows])
+    length = np.linalg.norm(end - start, axis=1)
+    area, speed, color_index, part, layer, height = np.repeat(np.array([r[2] for r in rows], dtype=float), counts, axis=0).T
+    color_index = color_index.astype(np.int64)
+    commanded = np.asarray(centers, dtype=float)[color_index]
+    temperature = settings.temperature_b + commanded[:, 0] * (settings.temperature_a - settings.temperature_b)
+    return SegmentTrace(
+        start=start,
+        end=end,
+        volume=length * area,
+        duration=length / speed,
+        commanded=commanded,
+        temperature=temperature,
+        height=height,
+        layer=layer.astype(np.int64),
+        line=np.zeros(len(length), dtype=np.int64),
+        part=part.astype(bool),
+    )
