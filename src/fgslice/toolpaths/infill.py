@@ -1,0 +1,308 @@
+"""Infill: rectilinear lines linked into serpentines, and concentric loops.
+
+Units mm and degrees. Densities are fractions of a solid fill in percent (0-100).
+A fill at density ``d`` lays lines whose total length times the bead cross-section
+``A`` equals ``region area x h x d / 100`` (see ``docs/toolpaths.md``): the nominal
+line spacing is ``s * 100 / d`` with ``s = A / h`` (:func:`~fgslice.toolpaths.walls.bead_spacing`),
+corrected once for the length of the links between lines.
+
+Rectilinear lines are anchored on a global grid (line ``i`` at ``(i + 1/2) * spacing``
+across the fill direction), so sparse infill stacks from layer to layer. Line ``i`` of
+a serpentine runs left to right in the rotated frame when ``i`` is even, right to left
+when odd; consecutive lines are joined at alternating ends by a straight link when the
+link lies inside the region and is at most :data:`MAX_LINK_SPACINGS` spacings long.
+In the returned paths, segment ``2 j`` is the ``j``-th line and segment ``2 j + 1`` the
+link after it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+import shapely
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from fgslice.toolpaths.paths import Path, Role
+from fgslice.toolpaths.walls import bead_spacing, offset, opening, ring_groups, split_rings
+
+MAX_LINK_SPACINGS = 3.0
+"""Longest link between two neighbouring lines, in line spacings."""
+
+VOLUME_TOLERANCE = 0.01
+"""Relative volume error of a rectilinear fill above which its spacing is corrected."""
+
+SPACING_CANDIDATES = (0.96, 0.98, 1.0, 1.02, 1.04)
+"""Factors around the corrected spacing tried when a fill misses its volume."""
+
+SLIVER_MIN_THICKNESS = 1e-3
+"""Gap fills are made only for slivers at least this thick on average (mm); thinner ones
+are numerical residue of offsetting."""
+
+INSIDE_TOLERANCE = 1e-4
+"""Slack (mm) when testing that a link lies inside the region."""
+
+
+def _rotate(xy: np.ndarray, angle_deg: float) -> np.ndarray:
+    """Rotate ``(N, 2)`` points about the origin by ``angle_deg`` (counter-clockwise)."""
+    a = np.deg2rad(angle_deg)
+    c, s = np.cos(a), np.sin(a)
+    return xy @ np.array([[c, s], [-s, c]])
+
+
+def _scan_segments(coords: np.ndarray, ring: np.ndarray, spacing: float, min_length: float):
+    """Scanline clip of the global grid of horizontal lines against polygon rings.
+
+    ``coords``/``ring`` are the region's ring vertices (already rotated, no repeated
+    closing vertex). Each edge crossing line ``y_i = (i + 1/2) spacing`` (half-open in y,
+    so a vertex on a line counts once) gives an x; sorted per line, crossings pair up
+    into inside intervals by the even-odd rule.
+
+    Returns ``(line, x0, x1, y)`` arrays sorted by line then x, one row per segment
+    at least ``min_length`` long.
+    """
+    nxt = np.arange(1, len(coords) + 1)
+    last = np.r_[ring[1:] != ring[:-1], True]
+    first = np.flatnonzero(np.r_[True, ring[1:] != ring[:-1]])
+    nxt[last] = first
+    p, q = coords, coords[nxt]
+    lo_y, hi_y = np.minimum(p[:, 1], q[:, 1]), np.maximum(p[:, 1], q[:, 1])
+    i0 = np.ceil(lo_y / spacing - 0.5).astype(np.int64)
+    i1 = np.ceil(hi_y / spacing - 0.5).astype(np.int64)
+    counts = np.maximum(i1 - i0, 0)
+    edge = np.repeat(np.arange(len(p)), counts)
+    line = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts) + i0[edge]
+    y = (line + 0.5) * spacing
+    t = (y - p[edge, 1]) / (q[edge, 1] - p[edge, 1])
+    x = p[edge, 0] + t * (q[edge, 0] - p[edge, 0])
+    order = np.lexsort((x, line))
+    line, x = line[order], x[order]
+    line, x0, x1 = line[0::2], x[0::2], x[1::2]
+    keep = x1 - x0 >= min_length
+    line, x0, x1 = line[keep], x0[keep], x1[keep]
+    return line, x0, x1, (line + 0.5) * spacing
+
+
+def _links(region, line, x0, x1, y, spacing: float) -> tuple[np.ndarray, np.ndarray]:
+    """Accepted links ``(a, b)``: segment ``a`` on line ``i`` to segment ``b`` on ``i + 1``.
+
+    The link joins the right ends when ``i`` is even, the left ends when odd. Each end
+    is used once (shortest candidate wins).
+    """
+    n = len(line)
+    if n < 2:
+        return np.empty(0, int), np.empty(0, int)
+    next_start = np.searchsorted(line, line + 1, side="left")
+    next_end = np.searchsorted(line, line + 1, side="right")
+    counts = next_end - next_start
+    a = np.repeat(np.arange(n), counts)
+    if len(a) == 0:
+        return a, a
+    b = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts) + np.repeat(next_start, counts)
+    right = line[a] % 2 == 0
+    xa = np.where(right, x1[a], x0[a])
+    xb = np.where(right, x1[b], x0[b])
+    length = np.hypot(xb - xa, y[b] - y[a])
+    ok = length <= MAX_LINK_SPACINGS * spacing
+    a, b, xa, xb, length = a[ok], b[ok], xa[ok], xb[ok], length[ok]
+    seg = np.stack([np.column_stack([xa, y[a]]), np.column_stack([xb, y[b]])], axis=1)
+    inside = shapely.covered_by(shapely.linestrings(seg), shapely.buffer(region, INSIDE_TOLERANCE))
+    a, b, length = a[inside], b[inside], length[inside]
+    order = np.argsort(length, kind="stable")
+    a, b = a[order], b[order]
+    _, first_a = np.unique(a, return_index=True)
+    a, b = a[np.sort(first_a)], b[np.sort(first_a)]
+    _, first_b = np.unique(b, return_index=True)
+    return a[np.sort(first_b)], b[np.sort(first_b)]
+
+
+def _serpentines(line, x0, x1, y, a, b) -> tuple[np.ndarray, np.ndarray]:
+    """Order linked segments into chains: ``(points (2n, 2), chain id per point)``."""
+    n = len(line)
+    graph = coo_matrix((np.ones(len(a)), (a, b)), shape=(n, n))
+    _, chain = connected_components(graph, directed=False)
+    order = np.lexsort((line, chain))
+    forward = line[order] % 2 == 0
+    start = np.where(forward, x0[order], x1[order])
+    end = np.where(forward, x1[order], x0[order])
+    pts = np.empty((2 * n, 2))
+    pts[0::2, 0], pts[1::2, 0] = start, end
+    pts[0::2, 1] = pts[1::2, 1] = y[order]
+    return pts, np.repeat(chain[order], 2)
+
+
+def line_fill(region, spacing: float, angle_deg: float, width: float, *, link: bool = True):
+    """Parallel lines across ``region`` at ``spacing`` and ``angle_deg``, as polylines.
+
+    Returns:
+        ``(points, chain)``: the ``(M, 2)`` vertices of every polyline in the bed frame
+        and, per vertex, the index of its polyline (vertices of one polyline contiguous).
+        Lines shorter than ``width`` are dropped.
+    """
+    if region.is_empty or spacing <= 0:
+        return np.empty((0, 2)), np.empty(0, int)
+    coords, ring, _ = ring_groups(region)
+    rotated = shapely.transform(region, lambda xy: _rotate(xy, -angle_deg)) if link else None
+    line, x0, x1, y = _scan_segments(_rotate(coords, -angle_deg), ring, spacing, width)
+    if len(line) == 0:
+        return np.empty((0, 2)), np.empty(0, int)
+    a, b = _links(rotated, line, x0, x1, y, spacing) if link else (np.empty(0, int), np.empty(0, int))
+    pts, chain = _serpentines(line, x0, x1, y, a, b)
+    return _rotate(pts, angle_deg), chain
+
+
+def _lengths(points: np.ndarray, chain: np.ndarray) -> tuple[float, float]:
+    """Total length of lines and of links of :func:`line_fill` polylines, mm.
+
+    Every polyline starts at an even vertex index and alternates line, link, line...,
+    so segment ``i`` is a line exactly when ``i`` is even.
+    """
+    seg = np.hypot(*np.diff(points, axis=0).T)
+    same = chain[1:] == chain[:-1]
+    even = np.arange(len(seg)) % 2 == 0
+    return float(seg[same & even].sum()), float(seg[same & ~even].sum())
+
+
+def rectilinear(
+    region,
+    density: float,
+    angle_deg: float,
+    width: float,
+    height: float,
+    role: Role,
+    *,
+    color: int = 0,
+    link: bool = True,
+) -> list[Path]:
+    """Rectilinear fill of ``region`` at ``density`` percent (lines linked into serpentines).
+
+    The spacing starts at ``s * 100 / density``; when lines plus links then miss
+    ``area * h * density / 100`` of volume by more than :data:`VOLUME_TOLERANCE`, the
+    spacing is corrected for the measured link length (links are dropped if they would
+    take more than half of the length) and the candidate spacings around it
+    (:data:`SPACING_CANDIDATES`) are tried, keeping the one closest in volume: with few
+    lines, whole lines appear or vanish as the grid shifts.
+    """
+    if density <= 0 or region.is_empty:
+        return []
+    spacing = bead_spacing(width, height) * 100.0 / density
+    points, chain = line_fill(region, spacing, angle_deg, width, link=link)
+    lines, links = _lengths(points, chain)
+    target = region.area * density / 100.0 / bead_spacing(width, height)
+    if lines > 0 and abs(lines + links - target) > VOLUME_TOLERANCE * target:
+        link = link and target - links > 0.5 * target
+        corrected = lines * spacing / (target - links if link else target)
+        best = (abs(lines + links - target), points, chain)
+        for factor in SPACING_CANDIDATES:
+            pts, ch = line_fill(region, corrected * factor, angle_deg, width, link=link)
+            error = abs(sum(_lengths(pts, ch)) - target)
+            if error < best[0]:
+                best = (error, pts, ch)
+        points, chain = best[1], best[2]
+    return open_paths(points, chain, role, color, width, height)
+
+
+def open_paths(points: np.ndarray, chain: np.ndarray, role: Role, color: int, width: float, height: float) -> list[Path]:
+    """Open :class:`Path` objects from flat polyline vertices grouped by ``chain``."""
+    if len(points) == 0:
+        return []
+    starts = np.flatnonzero(np.r_[True, chain[1:] != chain[:-1]])
+    ends = np.r_[starts[1:], len(points)]
+    return [Path(points[s:e], role, color, width, height) for s, e in zip(starts.tolist(), ends.tolist()) if e - s >= 2]
+
+
+@dataclass(frozen=True)
+class Loops:
+    """Closed loop centerlines of many regions, flattened (see :func:`concentric_levels`).
+
+    Attributes:
+        coords: ``(M, 2)`` ring vertices, bed frame, mm (closing vertex not repeated).
+        ring: ring index (0..R-1) of each vertex.
+        region: per ring, the index of the region it fills.
+        level: per ring, its offset level (0 = outermost); -1 for gap fills.
+        width: per ring, its bead width, mm (narrower than nominal for gap fills).
+    """
+
+    coords: np.ndarray
+    ring: np.ndarray
+    region: np.ndarray
+    level: np.ndarray
+    width: np.ndarray
+
+    def paths(self, roles, colors, height: float) -> list[Path]:
+        """The loops as closed paths (``roles``/``colors``: one value or one per ring)."""
+        out = split_rings(self.coords, self.ring, roles, colors, 1.0, height)
+        return [replace(p, width=float(w)) for p, w in zip(out, self.width)]
+
+
+def concentric_levels(regions, first: float, spacing: float, width: float, height: float, *,
+                      gap_fill: bool = True, max_levels: int | None = None) -> Loops:
+    """Concentric loop centerlines of many regions at once.
+
+    Loop ``k`` of region ``r`` is the boundary of ``regions[r]`` eroded by
+    ``first + k * spacing`` and opened by ``spacing / 2`` (no loop around a sliver
+    narrower than the spacing). Erosion proceeds level by level over all regions
+    still non-empty (one vectorized offset per level), at most ``max_levels`` levels.
+
+    With ``gap_fill``, each sliver an opening removes (the eroded region minus its
+    opening: parts narrower than a spacing, e.g. the middle of a face) is printed as
+    its own boundary loop with a reduced width ``w'`` chosen so that the loop deposits
+    the sliver's share of material: with sliver area ``a`` and perimeter ``p`` (so mean
+    thickness ``2 a / p``), ``w' = a / p + s / 2 + h (1 - pi/4)``, clipped to ``[h, w]``.
+    Slivers shorter than a bead (``p / 2 < w``) or thinner than
+    :data:`SLIVER_MIN_THICKNESS` are dropped.
+    """
+    regions = np.atleast_1d(np.asarray(regions, dtype=object))
+    active = np.flatnonzero(~shapely.is_empty(regions))
+    current = offset(regions[active], -first)
+    geoms, owners, levels, widths = [], [], [], []
+    level = 0
+    while len(active) and (max_levels is None or level < max_levels):
+        half = offset(current, -spacing / 2)
+        opened = offset(half, spacing / 2)
+        if gap_fill:
+            parts, src = shapely.get_parts(shapely.difference(current, opened), return_index=True)
+            area, perimeter = shapely.area(parts), shapely.length(parts)
+            keep = (perimeter / 2 >= width) & (2 * area >= SLIVER_MIN_THICKNESS * perimeter)
+            thin = np.clip(area[keep] / perimeter[keep] + spacing / 2 + height * (1 - np.pi / 4), height, width)
+            geoms.append(parts[keep])
+            owners.append(active[src[keep]])
+            levels.append(np.full(keep.sum(), -1))
+            widths.append(thin)
+        alive = ~shapely.is_empty(half)
+        active, half, opened = active[alive], half[alive], opened[alive]
+        geoms.append(opened)
+        owners.append(active)
+        levels.append(np.full(len(active), level))
+        widths.append(np.full(len(active), width))
+        current = offset(half, -spacing / 2)
+        level += 1
+    if not geoms:
+        empty = np.empty(0, int)
+        return Loops(np.empty((0, 2)), empty, empty, empty, np.empty(0))
+    coords, ring, src = ring_groups(np.concatenate(geoms))
+    return Loops(coords, ring, np.concatenate(owners)[src], np.concatenate(levels)[src], np.concatenate(widths)[src])
+
+
+def concentric(region, density: float, width: float, height: float, role: Role, *, color: int = 0) -> list[Path]:
+    """Concentric fill of ``region`` at ``density`` percent: loops ``spacing`` apart.
+
+    The first loop is half a spacing inside ``region`` (``region`` is the area to fill,
+    e.g. the inner edge of the innermost wall's strip); spacing is ``s * 100 / density``.
+    """
+    if density <= 0 or region.is_empty:
+        return []
+    spacing = bead_spacing(width, height) * 100.0 / density
+    loops = concentric_levels([region], spacing / 2, spacing, width, height, gap_fill=density >= 100.0)
+    return loops.paths(role, color, height)
+
+
+def uncovered_area(regions, width: float) -> float:
+    """Total area (mm²) of the parts of ``regions`` narrower than a bead.
+
+    That is each region minus its opening by ``w / 2`` (erode by half a bead, dilate
+    back): what no bead of width ``w`` fits in.
+    """
+    regions = np.atleast_1d(np.asarray(regions, dtype=object))
+    return float(np.sum(shapely.area(regions)) - np.sum(shapely.area(opening(regions, width / 2))))

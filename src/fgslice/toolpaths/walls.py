@@ -1,0 +1,130 @@
+"""Perimeters (walls) by inward offsets of a layer outline, and the offset helpers.
+
+Spacing model (see ``docs/toolpaths.md``): a bead of width ``w`` and height ``h`` has the
+capsule cross-section ``A = h (w - h) + pi h^2 / 4`` (mm²). Neighbouring beads are laid
+at the centerline spacing ``s = A / h = w - h (1 - pi/4)`` (PrusaSlicer's perimeter
+spacing), so that a region of area ``R`` filled with lines of total length ``L ~ R / s``
+receives exactly ``R h`` of material. The outermost centerline sits exactly ``w / 2``
+inside the outline; loop ``k`` sits ``w / 2 + k s`` inside.
+
+All geometry is shapely 2 in the bed frame, mm. Offsets use mitre joins with
+:data:`MITRE_LIMIT` and are vectorized over arrays of geometries and distances.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+
+from fgslice.toolpaths.paths import Path, Role, bead_area
+
+MITRE_LIMIT = 3.0
+"""Mitre limit of every offset (ratio of the mitre length to the offset distance)."""
+
+
+def bead_spacing(width: float, height: float) -> float:
+    """Centerline spacing of neighbouring beads, mm: ``A / h = w - h (1 - pi/4)``."""
+    return bead_area(width, height) / height
+
+
+def offset(geoms, distance) -> np.ndarray:
+    """Offset polygons by ``distance`` (mm, negative = inward), mitre joins, vectorized.
+
+    ``geoms`` and ``distance`` broadcast against each other (scalars or arrays).
+    """
+    return shapely.buffer(geoms, distance, join_style="mitre", mitre_limit=MITRE_LIMIT)
+
+
+def opening(geoms, radius) -> np.ndarray:
+    """Morphological opening: erode by ``radius`` then dilate back (mm), vectorized.
+
+    Removes every part narrower than ``2 * radius`` and keeps the rest unchanged
+    (sharp corners included, thanks to mitre joins).
+    """
+    return offset(offset(geoms, -np.asarray(radius)), radius)
+
+
+def ring_groups(geoms) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every ring (exteriors and holes) of an array of polygonal geometries, flattened.
+
+    Returns:
+        ``(coords, ring_index, ring_source)``: the ``(M, 2)`` vertices of all rings
+        without the repeated closing vertex; for each vertex the index (0..R-1) of its
+        ring; for each ring the index into ``geoms`` of the geometry it belongs to.
+        Rings with fewer than 3 distinct vertices are left out. Within a polygon the
+        exterior comes first.
+    """
+    geoms = np.atleast_1d(np.asarray(geoms, dtype=object))
+    parts, part_src = shapely.get_parts(geoms, return_index=True)
+    keep = ~shapely.is_empty(parts)
+    parts, part_src = parts[keep], part_src[keep]
+    rings, ring_part = shapely.get_rings(parts, return_index=True)
+    big = shapely.get_num_coordinates(rings) >= 4
+    rings, ring_part = rings[big], ring_part[big]
+    coords, index = shapely.get_coordinates(rings, return_index=True)
+    last = np.r_[index[1:] != index[:-1], True]
+    return coords[~last], index[~last], part_src[ring_part]
+
+
+def split_rings(coords: np.ndarray, index: np.ndarray, roles, colors, width: float, height: float) -> list[Path]:
+    """Closed :class:`Path` objects from flat ring vertices (as :func:`ring_groups` gives).
+
+    ``roles`` is one :class:`Role` or one per ring; ``colors`` one int or one per ring.
+    """
+    if len(coords) == 0:
+        return []
+    starts = np.flatnonzero(np.r_[True, index[1:] != index[:-1]])
+    ends = np.r_[starts[1:], len(coords)]
+    n = len(starts)
+    roles = [roles] * n if isinstance(roles, Role) else list(roles)
+    colors = np.broadcast_to(np.asarray(colors, dtype=int), (n,)).tolist()
+    return [
+        Path(coords[a:b], role, color, width, height, closed=True)
+        for a, b, role, color in zip(starts.tolist(), ends.tolist(), roles, colors)
+    ]
+
+
+@dataclass(frozen=True)
+class Walls:
+    """Result of :func:`make_walls`.
+
+    Attributes:
+        paths: the perimeters, ordered by loop index (outermost loops first when
+            outer-first, innermost first otherwise).
+        inner: area left for skins and infill (the inner edge of the innermost loop's
+            nominal strip, i.e. ``s / 2`` inside its centerline), a MultiPolygon.
+    """
+
+    paths: list[Path]
+    inner: shapely.Geometry
+
+
+def make_walls(outline, count: int, width: float, height: float, *, outer_first: bool = False, color: int = 0) -> Walls:
+    """Perimeters of ``outline``: ``count`` loops per island and per hole.
+
+    Loop ``k`` is the boundary of the outline eroded by ``w / 2 + k s`` (``s`` from
+    :func:`bead_spacing`), opened by ``s / 2`` so that no loop is printed around a
+    sliver narrower than the bead spacing (its two sides would overlap). Loop 0 of
+    each island and of each hole has role EXTERNAL_PERIMETER, the others PERIMETER.
+
+    Args:
+        outline: the layer's cross-section (Polygon or MultiPolygon), mm.
+        count: number of loops (0 = none; the inner area is then the outline eroded by
+            ``w / 2``, so fills keep their centerlines half a bead inside).
+        width, height: bead width and layer height, mm.
+        outer_first: print order of the loops of each island.
+        color: color given to every loop.
+    """
+    s = bead_spacing(width, height)
+    if count == 0 or outline.is_empty:
+        return Walls([], offset(outline, -width / 2))
+    dist = width / 2 + s * np.arange(count)
+    centers = opening(offset(outline, -dist), s / 2)
+    inner = offset(centers[-1], -s / 2)
+    coords, ring_idx, loop = ring_groups(centers)
+    roles = np.where(loop == 0, Role.EXTERNAL_PERIMETER, Role.PERIMETER)
+    paths = split_rings(coords, ring_idx, roles, color, width, height)
+    order = np.argsort(loop if outer_first else -loop, kind="stable")
+    return Walls([paths[i] for i in order], inner)

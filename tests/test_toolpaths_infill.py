@@ -1,0 +1,75 @@
+"""Infill: density as extruded volume, line directions, links inside the region."""
+
+import numpy as np
+import pytest
+import shapely
+
+from fgslice.toolpaths.infill import concentric, rectilinear
+from fgslice.toolpaths.paths import Role, bead_area
+
+W, H = 0.4, 0.2
+
+
+def region():
+    plate = shapely.box(0, 0, 60, 50).difference(shapely.Point(30, 25).buffer(8, quad_segs=32))
+    return plate.difference(shapely.box(45, -1, 50, 20))
+
+
+def volume(paths):
+    return sum(p.length * bead_area(p.width, p.height) for p in paths)
+
+
+@pytest.mark.parametrize("density", [10, 20, 35, 60, 100])
+@pytest.mark.parametrize("angle", [0, 45, 90, 30])
+def test_rectilinear_density_is_volume(density, angle):
+    area = region()
+    paths = rectilinear(area, density, angle, W, H, Role.INTERNAL_INFILL)
+    error = volume(paths) / (area.area * H * density / 100) - 1
+    assert abs(error) < 0.05, error
+
+
+@pytest.mark.parametrize("density", [20, 100])
+def test_concentric_density_is_volume(density):
+    area = region()
+    paths = concentric(area, density, W, H, Role.INTERNAL_INFILL)
+    error = volume(paths) / (area.area * H * density / 100) - 1
+    assert abs(error) < 0.05, error
+
+
+def test_paths_inside_and_serpentine_links_short():
+    area = region()
+    paths = rectilinear(area, 30, 45, W, H, Role.INTERNAL_INFILL)
+    grown = area.buffer(1e-6)
+    for p in paths:
+        assert grown.covers(shapely.LineString(p.points))
+    # linked: far fewer paths than lines
+    n_lines = sum(len(p.points) // 2 for p in paths)
+    assert len(paths) < n_lines / 4
+    # lines (even segments) run at 45 degrees; links are the odd segments
+    for p in paths:
+        d = np.diff(p.points, axis=0)
+        lines = d[0::2]
+        assert np.allclose(np.abs(lines[:, 0]), np.abs(lines[:, 1]), atol=1e-6)
+        assert np.all(np.hypot(*lines.T) >= W)
+
+
+def test_direction_follows_angle():
+    area = shapely.box(0, 0, 20, 20)
+    for angle, axis in ((0, 1), (90, 0)):
+        paths = rectilinear(area, 50, angle, W, H, Role.SOLID_INFILL)
+        lines = np.diff(paths[0].points, axis=0)[0::2]
+        assert np.allclose(lines[:, axis], 0, atol=1e-9)
+
+
+def test_short_lines_dropped():
+    # a thin triangle: lines near the tip are shorter than a bead
+    tri = shapely.Polygon([(0, 0), (20, 0), (0, 4)])
+    paths = rectilinear(tri, 100, 90, W, H, Role.SOLID_INFILL, link=False)
+    assert all(p.length >= W for p in paths)
+    assert max(p.points[:, 0].max() for p in paths) < 20 - 1.0
+
+
+def test_zero_density_and_empty_region():
+    assert rectilinear(region(), 0, 0, W, H, Role.INTERNAL_INFILL) == []
+    assert rectilinear(shapely.Polygon(), 20, 0, W, H, Role.INTERNAL_INFILL) == []
+    assert concentric(shapely.Polygon(), 20, W, H, Role.INTERNAL_INFILL) == []

@@ -1,0 +1,81 @@
+"""Walls: count, spacing, holes, roles, nothing outside the outline, no sub-bead fragments."""
+
+import numpy as np
+import pytest
+import shapely
+
+from fgslice.toolpaths.paths import Role
+from fgslice.toolpaths.walls import bead_spacing, make_walls
+
+W, H = 0.4, 0.2
+
+
+def plate_with_hole():
+    return shapely.MultiPolygon([shapely.box(0, 0, 30, 20).difference(shapely.Point(15, 10).buffer(4, quad_segs=32))])
+
+
+def distances_to_boundary(paths, outline):
+    pts = np.vstack([p.points for p in paths])
+    return shapely.distance(shapely.points(pts), outline.boundary)
+
+
+@pytest.mark.parametrize("count", [1, 3, 5])
+def test_wall_count_and_spacing(count):
+    outline = plate_with_hole()
+    walls = make_walls(outline, count, W, H)
+    # one loop per island and per hole, per wall
+    assert len(walls.paths) == 2 * count
+    s = bead_spacing(W, H)
+    for k in range(count):
+        # loop k sits w/2 + k s inside the design surface
+        d = distances_to_boundary(walls.paths, outline)
+        assert np.any(np.isclose(d, W / 2 + k * s, atol=0.02))
+    outer = [p for p in walls.paths if p.role is Role.EXTERNAL_PERIMETER]
+    assert len(outer) == 2  # the island and the hole
+    d = distances_to_boundary(outer, outline)
+    assert np.allclose(d, W / 2, atol=0.02)
+
+
+def test_hole_gets_walls_and_paths_stay_inside():
+    outline = plate_with_hole()
+    walls = make_walls(outline, 3, W, H)
+    hole = shapely.Point(15, 10).buffer(4, quad_segs=32)
+    around_hole = [p for p in walls.paths if shapely.Polygon(p.points).contains(shapely.Point(15, 10)) and p.length < 40]
+    assert len(around_hole) == 3
+    for p in walls.paths:
+        line = shapely.LinearRing(p.points)
+        assert outline.buffer(-W / 2 + 1e-6).covers(line)
+        assert not line.intersects(hole)
+    # inner area is the strip edge of the last loop: w/2 + 2 s + s/2 inside
+    s = bead_spacing(W, H)
+    expected = outline.buffer(-(W / 2 + 2.5 * s), join_style="mitre")
+    assert walls.inner.symmetric_difference(expected).area < 1e-3
+
+
+def test_outer_first_order():
+    walls = make_walls(plate_with_hole(), 3, W, H, outer_first=True)
+    assert walls.paths[0].role is Role.EXTERNAL_PERIMETER
+    walls = make_walls(plate_with_hole(), 3, W, H, outer_first=False)
+    assert walls.paths[-1].role is Role.EXTERNAL_PERIMETER
+
+
+def test_no_fragment_narrower_than_a_bead():
+    # a plate with a thin tab (0.3 mm < w) and a slightly wider one (0.9 mm)
+    body = shapely.box(0, 0, 20, 20)
+    thin = shapely.box(20, 5, 30, 5.3)
+    wide = shapely.box(20, 10, 30, 10.9)
+    outline = shapely.MultiPolygon([shapely.union_all([body, thin, wide])])
+    walls = make_walls(outline, 2, W, H)
+    for p in walls.paths:
+        # every bead fits inside the outline
+        assert outline.buffer(1e-6).covers(shapely.LinearRing(p.points).buffer(W / 2 - 1e-3))
+    pts = np.vstack([p.points for p in walls.paths])
+    assert not np.any((pts[:, 0] > 20.5) & (pts[:, 1] > 4.9) & (pts[:, 1] < 5.4))
+    assert np.any((pts[:, 0] > 25) & (pts[:, 1] > 10) & (pts[:, 1] < 11))
+
+
+def test_no_walls_inner_is_half_bead_inside():
+    outline = plate_with_hole()
+    walls = make_walls(outline, 0, W, H)
+    assert walls.paths == []
+    assert abs(walls.inner.area - outline.buffer(-W / 2, join_style="mitre").area) < 1e-6
