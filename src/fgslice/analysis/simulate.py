@@ -27,12 +27,16 @@ coordinates of a trace are in the bed frame (``bed = design + placement offset``
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
+from os import PathLike
+from pathlib import Path as FilePath
 
 import numpy as np
 
 from fgslice.design.base import Design, Material
-from fgslice.errors import SettingsError
+from fgslice.errors import GcodeError, SettingsError
+from fgslice.slicing.layers import Placement
 
 #: Per-interval decay exponent cap: beyond it the previous state weighs < 5e-18.
 _MAX_DECAY = 40.0
@@ -408,3 +412,185 @@ def trace_from_plans(plans, centers: np.ndarray, settings) -> SegmentTrace:
         line=np.zeros(len(length), dtype=np.int64),
         part=part.astype(bool),
     )
+
+
+_HEADER = re.compile(r"^;\s*(placement_offset|colors)\s*=\s*(.*?)\s*$", re.MULTILINE)
+_NON_PART_ROLES = ("skirt", "brim", "wipe", "prime", "purge", "custom")
+
+
+@dataclass(frozen=True)
+class GcodeHeader:
+    """What the simulator reads from ``; key = value`` comments of a G-code file.
+
+    Attributes:
+        placement_offset: ``bed = design + offset`` (mm), or None when absent.
+        colors: palette size N, or None when absent.
+    """
+
+    placement_offset: tuple[float, float, float] | None = None
+    colors: int | None = None
+
+
+def read_header(text: str, file: str | None = None) -> GcodeHeader:
+    """Scan G-code text for ``; placement_offset = dx,dy,dz`` and ``; colors = N`` (first wins)."""
+    found: dict[str, tuple[str, int]] = {}
+    for match in _HEADER.finditer(text):
+        found.setdefault(match.group(1), (match.group(2), text.count("\n", 0, match.start()) + 1))
+    offset = colors = None
+    if "placement_offset" in found:
+        value, line = found["placement_offset"]
+        try:
+            parts = tuple(float(p) for p in value.split(","))
+        except ValueError:
+            parts = ()
+        if len(parts) != 3 or not all(np.isfinite(parts)):
+            raise GcodeError(f"placement_offset '{value}' is not three numbers", file=file, line=line,
+                             hint="expected '; placement_offset = dx,dy,dz' in mm")
+        offset = parts
+    if "colors" in found:
+        value, line = found["colors"]
+        if not value.isdigit() or int(value) < 1:
+            raise GcodeError(f"colors '{value}' is not a palette size", file=file, line=line, hint="expected '; colors = N'")
+        colors = int(value)
+    return GcodeHeader(offset, colors)
+
+
+def _state_compositions(program, settings, centers: np.ndarray, n_materials: int) -> np.ndarray:
+    """``(len(program.states), k)`` composition each machine state commands.
+
+    Mixing dialects: the M165/M163 factors (normalized, channels beyond k dropped);
+    toolchanger: the palette center of the tool index; template: the center of the
+    ``;STATE:`` color; temperature: the linear mapping of the nozzle target. A state
+    that says nothing usable falls back to the ``;STATE:`` color, then to material A.
+    """
+    size = len(centers)
+    out = np.zeros((len(program.states), n_materials))
+    out[:, 0] = 1.0
+    for i, state in enumerate(program.states):
+        if settings.dialect == "temperature" and state.temperature is not None:
+            out[i] = fraction_from_temperature(np.array(state.temperature), settings.temperature_a, settings.temperature_b)[: n_materials]
+            continue
+        if settings.dialect.startswith("marlin-mixing") and state.mix is not None:
+            mix = np.zeros(n_materials)
+            given = np.clip(np.asarray(state.mix[:n_materials], dtype=float), 0.0, None)
+            mix[: len(given)] = given
+            if mix.sum() > 0:
+                out[i] = mix / mix.sum()
+                continue
+        if settings.dialect == "toolchanger" and 0 <= state.tool < size:
+            out[i] = centers[state.tool]
+            continue
+        if state.color is not None and 0 <= state.color < size:
+            out[i] = centers[state.color]
+    return out
+
+
+def trace_from_program(program, settings, centers: np.ndarray) -> SegmentTrace:
+    """The moves of a read G-code program as a :class:`SegmentTrace`.
+
+    Works for any slicer's G-code (relative or absolute E, ``G92``): a move deposits
+    ``E x filament area x M221 flow`` mm³ when it has positive E and moves in XY;
+    retractions and primes deposit nothing. Durations are the 3D length (or |E| for
+    E-only moves) over the feed rate. Layer heights come from the ``;Z:`` comments when
+    there are any, else ``settings.layer_height``. Moves whose ``;TYPE:`` names a
+    skirt, brim, wipe/purge tower or custom G-code are not part of the part.
+
+    Args:
+        program: a :class:`fgslice.machine.gcode_reader.GcodeProgram`.
+        settings: dialect, filament diameter, temperatures.
+        centers: ``(N, k)`` palette centers (composition of color / tool ``i``).
+    """
+    centers = np.asarray(centers, dtype=float)
+    filament_area = np.pi * settings.filament_diameter**2 / 4
+    flow = program.flow_of_moves() / 100.0
+    deposits = (program.e > 0) & (program.length > 0)
+    volume = np.where(deposits, program.e * filament_area * flow, 0.0)
+    distance = np.maximum(np.linalg.norm(program.end - program.start, axis=1), np.abs(program.e))
+    speed = np.where(program.feed > 0, program.feed / 60.0, settings.travel_speed)
+    temps = np.array([settings.nozzle_temperature if s.temperature is None else s.temperature for s in program.states])
+    non_part = np.array([any(word in name.lower() for word in _NON_PART_ROLES) for name in program.roles] + [False])
+    layer = np.maximum(program.layer, 0)
+    tops = np.asarray(program.layer_z, dtype=float)
+    heights = np.diff(np.r_[0.0, tops]) if len(tops) else np.zeros(0)
+    height = np.full(len(layer), settings.layer_height)
+    known = (layer < len(heights))
+    height[known] = heights[layer[known]]
+    height = np.where(height > 0, height, settings.layer_height)
+    commanded = _state_compositions(program, settings, centers, centers.shape[1])[program.state]
+    return SegmentTrace(
+        start=program.start,
+        end=program.end,
+        volume=volume,
+        duration=distance / speed,
+        commanded=commanded,
+        temperature=temps[program.state],
+        height=height,
+        layer=layer,
+        line=program.line,
+        part=~non_part[program.role],
+    )
+
+
+def simulate(
+    gcode,
+    design: Design,
+    placement: Placement | None,
+    settings,
+    *,
+    melt_volume_mm3: float | None = None,
+    palette_size: int | None = None,
+) -> SimulationResult:
+    """Simulate what a G-code file deposits and compare it with the design.
+
+    Args:
+        gcode: a G-code path, its text, or a read ``GcodeProgram`` (then its header
+            comments are not available: pass ``placement`` and ``palette_size``).
+        design: the design the G-code was sliced from.
+        placement: design-to-bed translation; None: the file's
+            ``; placement_offset = dx,dy,dz`` comment, else the slicer's default
+            placement (:func:`fgslice.slicing.plan_layers.place_design`: lowest point on
+            the bed, centered or at ``position_x/y``).
+        settings: the machine profile (dialect, melt volume, mixing share, tau,
+            temperatures, filament diameter).
+        melt_volume_mm3: overrides ``settings.melt_volume_mm3`` (``--melt-volume``).
+        palette_size: N; default the file's ``; colors = N``, else ``settings.colors``
+            (``tool_count`` for a toolchanger).
+
+    Raises:
+        GcodeError: unreadable G-code or malformed header comments.
+        SettingsError: a negative melt volume, equal temperatures of the mapping.
+    """
+    from fgslice.machine.gcode_reader import GcodeProgram, read_gcode
+    from fgslice.slicing.palette import Palette
+    from fgslice.slicing.plan_layers import place_design
+
+    header = GcodeHeader()
+    if isinstance(gcode, GcodeProgram):
+        program = gcode
+    else:
+        text, name = _gcode_text(gcode)
+        header = read_header(text, name)
+        program = read_gcode(text)
+    size = palette_size or header.colors or (settings.tool_count if settings.dialect == "toolchanger" else settings.colors)
+    palette = Palette(len(design.materials), size)
+    if placement is not None:
+        offset = tuple(placement.offset)
+    elif header.placement_offset is not None:
+        offset = header.placement_offset
+    else:
+        offset = tuple(place_design(design, settings).offset)
+    trace = trace_from_program(program, settings, palette.centers)
+    model = MeltModel.from_settings(settings, melt_volume_mm3)
+    return simulate_trace(trace, design, offset, model, palette_size=size, part_tolerance_mm=settings.bead_width / 2)
+
+
+def _gcode_text(gcode) -> tuple[str, str | None]:
+    """G-code text and file name from a path, bytes or text."""
+    if isinstance(gcode, bytes):
+        return gcode.decode("utf-8", errors="replace"), None
+    if isinstance(gcode, PathLike) or (isinstance(gcode, str) and "\n" not in gcode and len(gcode) < 4096):
+        try:
+            return FilePath(gcode).read_text(encoding="utf-8", errors="replace"), str(gcode)
+        except OSError as exc:
+            raise GcodeError(f"cannot read G-code: {exc.strerror}", file=str(gcode)) from None
+    return str(gcode), None
