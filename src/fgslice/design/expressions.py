@@ -1,0 +1,798 @@
+"""The safe expression language of design files, compiled to vectorized numpy code.
+
+An expression such as ``(1+sin(0.025*x+0.0375*y)*cos(0.0375*x-0.025*y))/2`` is parsed
+by a LALR grammar (lark, built once at import) and compiled to a flat list of numpy
+steps over a register file. Nothing of the text is ever passed to ``eval``/``exec``:
+only the names in :data:`FUNCTIONS`, :data:`VARIABLES` and :data:`CONSTANTS` exist.
+
+Conventions: coordinates in mm, angles in radians; evaluation is float64 and the result
+has the broadcast shape of ``x, y, z`` (and ``d`` when given). Comparisons and logic
+return 1.0/0.0 and treat any nonzero value (NaN included) as true. Names and keywords
+are case-insensitive. The reference is ``docs/expressions.md``.
+
+Errors point into the file holding the expression: ``compile_expression`` takes the
+line and column where the text starts, and every :class:`~fgslice.errors.DesignSyntaxError`
+or :class:`~fgslice.errors.DesignError` carries the file line/column of the offending
+token and a ``source_line`` (the expression's line, indented on its first line so the
+caret lines up with the file column).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from types import MappingProxyType
+
+import lark
+import numpy as np
+import scipy.special
+
+from fgslice.errors import DesignError, DesignSyntaxError, FgsliceError, FieldError, did_you_mean
+
+__all__ = [
+    "CONSTANTS",
+    "FUNCTIONS",
+    "MAX_DEPTH",
+    "MAX_LENGTH",
+    "VARIABLES",
+    "Expression",
+    "Function",
+    "compile_expression",
+]
+
+MAX_LENGTH = 100_000
+"""Longest expression text accepted, in characters."""
+
+MAX_DEPTH = 200
+"""Deepest nesting of operations accepted (parentheses that only group do not count)."""
+
+# Operator precedence, loosest first: ?: / or / and / not / comparisons (non-chaining) /
+# + - / * / % / unary sign / implicit multiplication / ^ (right-associative; its exponent
+# may carry a sign). The right operand of an implicit multiplication never starts with a
+# number or a sign, so "x 2" and "1.2.3" are errors and "a -b" is a subtraction. A name
+# directly followed by "(" is a call (CALLNAME), whitespace allowed in between.
+_GRAMMAR = r"""
+?start: ternary
+?ternary: or_test "?" ternary ":" ternary | or_test
+?or_test: and_test ("or" and_test)+ -> or_ | and_test
+?and_test: not_test ("and" not_test)+ -> and_ | not_test
+?not_test: NOT+ comparison -> not_ | comparison
+?comparison: sum COMPARE sum | sum
+?sum: product (ADDOP product)+ | product
+?product: unary (MULOP unary)+ | unary
+?unary: ADDOP+ implicit -> signed | implicit
+?implicit: power jpower+ | power
+?power: atom "^" exponent | atom
+?jpower: jatom "^" exponent -> power | jatom
+?exponent: ADDOP+ power -> signed | power
+?atom: NUMBER | jatom
+?jatom: NAME | call | "(" ternary ")"
+call: CALLNAME (ternary ("," ternary)*)? ")"
+
+NOT: "not"
+COMPARE: "<=" | ">=" | "==" | "!=" | "<" | ">"
+ADDOP: "+" | "-"
+MULOP: "*" | "/" | "%"
+NUMBER: /(\d+(\.\d*)?|\.\d+)(e[+-]?\d+)?/
+CALLNAME.2: /(?!(and|or|not)[ \t\r\n]*\()[a-z][a-z0-9_]*[ \t\r\n]*\(/
+NAME: /[a-z][a-z0-9_]*/
+%ignore /[ \t\r\n]+/
+"""
+
+_PARSER = lark.Lark(_GRAMMAR, parser="lalr", lexer="basic", propagate_positions=True)
+
+# The language is case-insensitive and has no strings: the text is parsed with ASCII
+# letters lowered (length-preserving, so token offsets index the original text too).
+_LOWER = str.maketrans("ABCDEFGHIJKLMNOPQRSTUVWXYZ", "abcdefghijklmnopqrstuvwxyz")
+
+
+# -- the vocabulary ------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Function:
+    """A function of the language.
+
+    Attributes:
+        name: lowercase name.
+        params: parameter names, in order (for a variadic function: the repeated one).
+        variadic: takes one or more arguments.
+        summary: what it computes (one line, for the reference and error hints).
+    """
+
+    name: str
+    params: tuple[str, ...]
+    variadic: bool
+    summary: str
+
+    @property
+    def signature(self) -> str:
+        """How a call reads, e.g. ``clamp(lo, x, hi)`` or ``max(a, ...)``."""
+        args = f"{self.params[0]}, ..." if self.variadic else ", ".join(self.params)
+        return f"{self.name}({args})"
+
+
+def _frac(x, out=None):
+    """Fractional part with the sign of ``x``: ``x - trunc(x)``."""
+    return np.subtract(x, np.trunc(x), out=out)
+
+
+def _round(x, out=None):
+    """Round half away from zero (like C's ``round``), unlike numpy's half-to-even."""
+    return np.copysign(np.floor(np.absolute(x) + 0.5), x, out=out)
+
+
+def _clamp(lo, x, hi, out=None):
+    """``x`` limited to ``[lo, hi]`` (``hi`` wins where ``lo > hi``)."""
+    return np.clip(x, lo, hi, out=out)
+
+
+def _not(x, out=None):
+    """Logical not: 1.0 where ``x == 0``, else 0.0."""
+    return np.equal(x, 0.0, out=out)
+
+
+def _truth(x, out=None):
+    """Truth value: 1.0 where ``x != 0`` (NaN included), else 0.0."""
+    return np.not_equal(x, 0.0, out=out)
+
+
+def _select(c, a, b):
+    """``a`` where ``c`` is nonzero, else ``b`` (both are evaluated everywhere)."""
+    return np.where(np.not_equal(c, 0.0), a, b)
+
+
+_FUNCTION_TABLE: list[tuple[str, tuple[str, ...], bool, Callable | None, str]] = [
+    ("abs", ("x",), False, np.absolute, "absolute value"),
+    ("avg", ("a",), True, None, "mean of the arguments"),
+    ("ceil", ("x",), False, np.ceil, "smallest integer >= x"),
+    ("floor", ("x",), False, np.floor, "largest integer <= x"),
+    ("sqrt", ("x",), False, np.sqrt, "square root (NaN for x < 0)"),
+    ("log", ("x",), False, np.log, "natural logarithm (NaN for x < 0, -inf at 0)"),
+    ("exp", ("x",), False, np.exp, "e to the power x"),
+    ("pow", ("x", "y"), False, np.power, "x to the power y, same as x^y"),
+    ("max", ("a",), True, np.maximum, "largest argument (NaN if any is NaN)"),
+    ("min", ("a",), True, np.minimum, "smallest argument (NaN if any is NaN)"),
+    ("clamp", ("lo", "x", "hi"), False, _clamp, "x limited to [lo, hi]"),
+    ("sin", ("x",), False, np.sin, "sine, x in radians"),
+    ("cos", ("x",), False, np.cos, "cosine, x in radians"),
+    ("tan", ("x",), False, np.tan, "tangent, x in radians"),
+    ("asin", ("x",), False, np.arcsin, "arc sine in [-pi/2, pi/2] (NaN outside [-1, 1])"),
+    ("acos", ("x",), False, np.arccos, "arc cosine in [0, pi] (NaN outside [-1, 1])"),
+    ("atan", ("x",), False, np.arctan, "arc tangent in (-pi/2, pi/2)"),
+    ("atan2", ("y", "x"), False, np.arctan2, "angle of the point (x, y) in [-pi, pi]"),
+    ("hypot", ("x", "y"), False, np.hypot, "sqrt(x^2 + y^2) without overflow"),
+    ("sgn", ("x",), False, np.sign, "sign: -1, 0 or 1"),
+    ("frac", ("x",), False, _frac, "fractional part x - trunc(x), sign of x"),
+    ("round", ("x",), False, _round, "nearest integer, halves away from zero"),
+    ("trunc", ("x",), False, np.trunc, "integer part, towards zero"),
+    ("deg2rad", ("x",), False, np.deg2rad, "degrees to radians"),
+    ("rad2deg", ("x",), False, np.rad2deg, "radians to degrees"),
+    ("erf", ("x",), False, scipy.special.erf, "error function"),
+    ("if", ("c", "a", "b"), False, None, "a where c is nonzero, else b (same as c ? a : b)"),
+]
+
+FUNCTIONS: Mapping[str, Function] = MappingProxyType(
+    {name: Function(name, params, variadic, summary) for name, params, variadic, _, summary in _FUNCTION_TABLE}
+)
+"""Every function of the language by lowercase name."""
+
+_KERNELS: dict[str, Callable] = {name: kernel for name, _, _, kernel, _ in _FUNCTION_TABLE if kernel is not None}
+
+VARIABLES: Mapping[str, str] = MappingProxyType(
+    {
+        "x": "x coordinate, mm",
+        "y": "y coordinate, mm",
+        "z": "z coordinate, mm",
+        "rho": "distance from the z axis, sqrt(x^2 + y^2), mm",
+        "phi": "azimuth atan2(y, x) in (-pi, pi], radians",
+        "phic": "same as phi (cylindrical azimuth)",
+        "theta": "same as phi",
+        "r": "distance from the origin, sqrt(x^2 + y^2 + z^2), mm",
+        "phis": "polar angle from +z, acos(z / r) in [0, pi] (0 at the origin), radians",
+        "d": "signed distance of the fgrade's child (negative inside), mm",
+    }
+)
+"""Every variable of the language by lowercase name (aliases included)."""
+
+CONSTANTS: Mapping[str, float] = MappingProxyType({"pi": math.pi, "e": math.e})
+"""The named constants."""
+
+_CANONICAL = {"phic": "phi", "theta": "phi"}
+
+_BINARY = {
+    "+": np.add,
+    "-": np.subtract,
+    "*": np.multiply,
+    "/": np.divide,
+    "%": np.fmod,
+    "<": np.less,
+    "<=": np.less_equal,
+    ">": np.greater,
+    ">=": np.greater_equal,
+    "==": np.equal,
+    "!=": np.not_equal,
+}
+
+
+# -- locations -------------------------------------------------------------------------
+
+
+class _Source:
+    """The expression text and where it starts in its file; builds located errors."""
+
+    def __init__(self, text: str, file: str | Path | None, line: int, column: int) -> None:
+        self.text = text
+        self.file = file
+        self.line = line
+        self.column = column
+        self.lines = text.split("\n")
+
+    def position(self, offset: int) -> tuple[int, int]:
+        """1-based (line, column) in the file of character ``offset`` of the text."""
+        offset = max(0, min(offset, len(self.text)))
+        row = self.text.count("\n", 0, offset)
+        col = offset - (self.text.rfind("\n", 0, offset) + 1) + 1
+        if row == 0:
+            return self.line, self.column + col - 1
+        return self.line + row, col
+
+    def source_line(self, file_line: int) -> str:
+        """The expression's text on ``file_line``, indented on its first line like the file."""
+        text = self.lines[file_line - self.line]
+        return " " * (self.column - 1) + text if file_line == self.line else text
+
+    def error(self, cls: type[FgsliceError], message: str, offset: int, hint: str | None = None) -> FgsliceError:
+        """An error of class ``cls`` located at character ``offset`` of the text."""
+        line, column = self.position(offset)
+        return cls(message, file=self.file, line=line, column=column, hint=hint, source_line=self.source_line(line))
+
+    def end_offset(self) -> int:
+        """Offset just past the last non-blank character."""
+        return len(self.text.rstrip(" \t\r\n"))
+
+
+# -- syntax errors ---------------------------------------------------------------------
+
+_ALLOWED = "numbers, names, f(...), ( ), + - * / % ^, < <= > >= == !=, and, or, not, ? :"
+
+_CHAR_HINTS = {
+    '"': "strings are not part of the expression language",
+    "'": "strings are not part of the expression language",
+    "[": "subscripts are not part of the expression language; group with ( )",
+    "]": "subscripts are not part of the expression language; group with ( )",
+    "{": "group with ( )",
+    "}": "group with ( )",
+    ".": "attribute access is not part of the expression language",
+    "_": "names start with a letter; names beginning with '_' do not exist",
+    "=": "compare with '=='; expressions cannot assign",
+    "&": "write 'and'",
+    "|": "write 'or'",
+    "!": "write 'not', or '!=' to compare",
+    "π": "write 'pi'",
+    "×": "write '*'",
+    "·": "write '*'",
+    "÷": "write '/'",
+    "−": "write '-' (ASCII minus)",
+    "²": "write '^2'",
+    "³": "write '^3'",
+}
+
+_TOKEN_NAMES = {
+    "LPAR": "'('",
+    "RPAR": "')'",
+    "COMMA": "','",
+    "NUMBER": "a number",
+    "NAME": "a name",
+    "CALLNAME": "a function call",
+    "ADDOP": "'+'/'-'",
+    "MULOP": "'*'/'/'/'%'",
+    "COMPARE": "a comparison",
+    "CIRCUMFLEX": "'^'",
+    "QMARK": "'?'",
+    "COLON": "':'",
+    "AND": "'and'",
+    "OR": "'or'",
+    "NOT": "'not'",
+    "$END": "the end of the expression",
+}
+
+
+def _expected(names: set[str]) -> str:
+    """``expected a number, a name or '('`` from lark's terminal names."""
+    readable = sorted({_TOKEN_NAMES.get(n, n) for n in names})
+    if not readable:
+        return "the expression cannot continue here"
+    if len(readable) > 6:
+        return "expected an operator, ')' or the end of the expression"
+    return "expected " + (readable[0] if len(readable) == 1 else ", ".join(readable[:-1]) + " or " + readable[-1])
+
+
+def _unmatched_paren(text: str) -> int | None:
+    """Offset of the first '(' never closed, or None."""
+    opened: list[int] = []
+    for i, ch in enumerate(text):
+        if ch == "(":
+            opened.append(i)
+        elif ch == ")" and opened:
+            opened.pop()
+    return opened[0] if opened else None
+
+
+def _syntax_error(src: _Source, exc: lark.exceptions.UnexpectedInput) -> FgsliceError:
+    """Turn lark's complaint into a located DesignSyntaxError with a hint."""
+    text = src.text
+    if isinstance(exc, lark.exceptions.UnexpectedCharacters):
+        ch = text[exc.pos_in_stream]
+        hint = _CHAR_HINTS.get(ch, f"expressions are made of {_ALLOWED}")
+        return src.error(DesignSyntaxError, f"unexpected character {ch!r}", exc.pos_in_stream, hint)
+    token = getattr(exc, "token", None)
+    expected = set(getattr(exc, "expected", ()) or ())
+    if token is None or token.type == "$END":
+        opened = _unmatched_paren(text)
+        if opened is not None and "RPAR" in expected:
+            line, column = src.position(opened)
+            return src.error(
+                DesignSyntaxError,
+                f"missing ')' to close the '(' at line {line}, column {column}",
+                src.end_offset(),
+                "add the closing parenthesis",
+            )
+        return src.error(DesignSyntaxError, "the expression ends too early", src.end_offset(), _expected(expected))
+    value = text[token.start_pos : token.end_pos]
+    offset = token.start_pos
+    if token.type == "NUMBER":
+        what, hint = f"number '{value}'", "a number cannot follow a value directly; write '*' to multiply"
+    elif token.type == "COMMA":
+        what, hint = "','", "commas only separate the arguments of a function call"
+    elif token.type == "RPAR" and "RPAR" not in expected and _unmatched_paren(text[:offset]) is None:
+        what, hint = "')'", "this ')' has no matching '('"
+    elif token.type == "COMPARE" and "COMPARE" not in expected and "$END" in expected:
+        what, hint = f"'{value}'", "comparisons do not chain: write 'a < b and b < c'"
+    elif token.type == "MULOP" and value == "*" and text[:offset].rstrip().endswith("*"):
+        what, hint = "'*'", "write '^' for powers"
+    elif token.type == "CALLNAME":
+        what, hint = f"call of '{value[:-1].rstrip()}'", _expected(expected)
+    elif token.type == "NAME":
+        what, hint = f"name '{value}'", _expected(expected)
+    else:
+        what, hint = f"'{value}'", _expected(expected)
+    return src.error(DesignSyntaxError, f"unexpected {what}", offset, hint)
+
+
+# -- compilation to a register program ---------------------------------------------------
+
+# Fixed registers: the broadcast shape, then the variables. Constants and temporaries
+# follow. Every non-constant value has the full broadcast shape and dtype float64.
+_SHAPE = 0
+_SLOTS = {"x": 1, "y": 2, "z": 3, "d": 4, "rho": 5, "phi": 6, "r": 7, "phis": 8}
+_FIRST_FREE = 9
+
+_BLOCK = 1 << 16
+"""Points evaluated per block: large arrays are processed in blocks of whole rows."""
+
+
+@dataclass(frozen=True, slots=True)
+class _Val:
+    """A compiled operand: a constant known now, or a register filled at run time.
+
+    ``fresh`` registers hold temporaries this program owns: the one step that consumes
+    them may write its result into them (numpy ``out=``) or release them.
+    """
+
+    const: float | None = None
+    slot: int = -1
+    fresh: bool = False
+
+
+_Step = Callable[[list], None]
+
+
+def _step(kernel: Callable, srcs: tuple[int, ...], dst: int, out: int | None, free: tuple[int, ...]) -> _Step:
+    """One program step: ``r[dst] = kernel(*r[srcs], out=...)``, then release ``free``.
+
+    ``out`` is the register whose array receives the result in place, or None to write
+    into a new array of the broadcast shape.
+    """
+    if out is None:
+
+        def run(r: list) -> None:
+            r[dst] = kernel(*[r[s] for s in srcs], out=np.empty(r[_SHAPE]))
+            for s in free:
+                r[s] = None
+
+    else:
+
+        def run(r: list) -> None:
+            r[dst] = kernel(*[r[s] for s in srcs], out=r[out])
+            for s in free:
+                r[s] = None
+
+    return run
+
+
+def _select_step(srcs: tuple[int, int, int], dst: int, free: tuple[int, ...]) -> _Step:
+    """A step choosing between two values by a condition (no in-place form)."""
+
+    def run(r: list) -> None:
+        r[dst] = _select(r[srcs[0]], r[srcs[1]], r[srcs[2]])
+        for s in free:
+            r[s] = None
+
+    return run
+
+
+def _rho(r: list) -> None:
+    r[_SLOTS["rho"]] = np.hypot(r[_SLOTS["x"]], r[_SLOTS["y"]])
+
+
+def _phi(r: list) -> None:
+    phi = np.arctan2(r[_SLOTS["y"]], r[_SLOTS["x"]])
+    np.copyto(phi, np.pi, where=phi <= -np.pi)  # atan2(-0.0, x<0) is -pi; the range is (-pi, pi]
+    r[_SLOTS["phi"]] = phi
+
+
+def _r(r: list) -> None:
+    planar = r[_SLOTS["rho"]] if r[_SLOTS["rho"]] is not None else np.hypot(r[_SLOTS["x"]], r[_SLOTS["y"]])
+    r[_SLOTS["r"]] = np.hypot(planar, r[_SLOTS["z"]])
+
+
+def _phis(r: list) -> None:
+    radius = r[_SLOTS["r"]]
+    cosine = np.ones(r[_SHAPE])  # acos(1) = 0 at the origin
+    np.divide(r[_SLOTS["z"]], radius, out=cosine, where=radius > 0)
+    np.clip(cosine, -1.0, 1.0, out=cosine)
+    r[_SLOTS["phis"]] = np.arccos(cosine, out=cosine)
+
+
+# Derived variables in dependency order (phis needs r; r reuses rho when present).
+_DERIVED: list[tuple[str, _Step]] = [("rho", _rho), ("phi", _phi), ("r", _r), ("phis", _phis)]
+
+
+class _Compiler:
+    """Walks the parse tree (iteratively) and emits steps; folds constant operations."""
+
+    def __init__(self, src: _Source) -> None:
+        self.src = src
+        self.steps: list[_Step] = []
+        self.template: list = [None] * _FIRST_FREE
+        self.used: set[str] = set()
+        self.d_offset: int | None = None
+
+    # registers
+    def _new(self) -> int:
+        self.template.append(None)
+        return len(self.template) - 1
+
+    def _slot(self, v: _Val) -> int:
+        if v.const is None:
+            return v.slot
+        slot = self._new()
+        self.template[slot] = v.const
+        return slot
+
+    def emit(self, kernel: Callable, args: list[_Val]) -> _Val:
+        """Apply ``kernel`` (a ufunc-like callable taking ``out=``) to ``args``."""
+        if all(a.const is not None for a in args):
+            with np.errstate(all="ignore"):
+                return _Val(const=float(kernel(*[a.const for a in args])))
+        srcs = tuple(self._slot(a) for a in args)
+        fresh = [a.slot for a in args if a.fresh]
+        dst = fresh[0] if fresh else self._new()
+        free = tuple(s for s in dict.fromkeys(fresh) if s != dst)
+        self.steps.append(_step(kernel, srcs, dst, dst if fresh else None, free))
+        return _Val(slot=dst, fresh=True)
+
+    def select(self, c: _Val, a: _Val, b: _Val) -> _Val:
+        """``a`` where ``c`` is nonzero, else ``b``."""
+        if c.const is not None and a.const is not None and b.const is not None:
+            return _Val(const=float(_select(c.const, a.const, b.const)))
+        srcs = (self._slot(c), self._slot(a), self._slot(b))
+        dst = self._new()
+        free = tuple(v.slot for v in (c, a, b) if v.fresh)
+        self.steps.append(_select_step(srcs, dst, free))
+        return _Val(slot=dst, fresh=True)
+
+    def fold(self, kernels: list[Callable], operands: list[_Val]) -> _Val:
+        """Left fold: ``((a0 k0 a1) k1 a2) ...`` as a flat run of steps."""
+        acc = operands[0]
+        for kernel, operand in zip(kernels, operands[1:], strict=True):
+            acc = self.emit(kernel, [acc, operand])
+        return acc
+
+    # leaves
+    def number(self, token: lark.Token) -> _Val:
+        value = float(token.value)
+        if not math.isfinite(value):
+            text = self.src.text[token.start_pos : token.end_pos]
+            shown = text if len(text) <= 24 else text[:20] + "..."
+            raise self.src.error(
+                DesignSyntaxError, f"number too large: '{shown}'", token.start_pos, "numbers must be below about 1.8e308"
+            )
+        return _Val(const=value)
+
+    def name(self, token: lark.Token) -> _Val:
+        name = token.value
+        if name in CONSTANTS:
+            return _Val(const=CONSTANTS[name])
+        if name in VARIABLES:
+            canonical = _CANONICAL.get(name, name)
+            self.used.add(canonical)
+            if canonical == "d" and self.d_offset is None:
+                self.d_offset = token.start_pos
+            return _Val(slot=_SLOTS[canonical])
+        original = self.src.text[token.start_pos : token.end_pos]
+        if name in FUNCTIONS:
+            raise self.src.error(
+                DesignError,
+                f"'{original}' is a function, not a value",
+                token.start_pos,
+                f"call it: {FUNCTIONS[name].signature}",
+            )
+        hint = did_you_mean(name, [*VARIABLES, *CONSTANTS]) or "variables are " + ", ".join(VARIABLES) + "; constants pi, e"
+        raise self.src.error(DesignError, f"unknown variable '{original}'", token.start_pos, hint)
+
+    # operations
+    def call(self, token: lark.Token, args: list[_Val]) -> _Val:
+        name = token.value[:-1].rstrip(" \t\r\n")
+        shown = self.src.text[token.start_pos : token.start_pos + len(name)]
+        if name not in FUNCTIONS:
+            if name in VARIABLES or name in CONSTANTS:
+                raise self.src.error(
+                    DesignError,
+                    f"'{shown}' is not a function",
+                    token.start_pos,
+                    f"write {shown}*(...) to multiply",
+                )
+            hint = did_you_mean(name, FUNCTIONS) or "functions are " + ", ".join(FUNCTIONS)
+            raise self.src.error(DesignError, f"unknown function '{shown}'", token.start_pos, hint)
+        function = FUNCTIONS[name]
+        n = len(args)
+        if function.variadic and n < 1:
+            raise self.src.error(
+                DesignError, f"{name} takes at least 1 argument, got 0", token.start_pos, f"write {function.signature}"
+            )
+        if not function.variadic and n != len(function.params):
+            count = len(function.params)
+            plural = "argument" if count == 1 else "arguments"
+            raise self.src.error(
+                DesignError,
+                f"{name} takes {count} {plural} ({', '.join(function.params)}), got {n}",
+                token.start_pos,
+                f"write {function.signature}",
+            )
+        if name == "if":
+            return self.select(*args)
+        if name == "avg":
+            return self.emit(np.divide, [self.fold([np.add] * (n - 1), args), _Val(const=float(n))])
+        if function.variadic:
+            return self.fold([_KERNELS[name]] * (n - 1), args)
+        return self.emit(_KERNELS[name], args)
+
+    def node(self, tree: lark.Tree, args: list[_Val]) -> _Val:
+        kind = tree.data
+        children = tree.children
+        if kind == "call":
+            return self.call(children[0], args)
+        if kind == "ternary":
+            return self.select(*args)
+        if kind in ("sum", "product"):
+            ops = [_BINARY[c.value] for c in children if isinstance(c, lark.Token) and c.type in ("ADDOP", "MULOP")]
+            return self.fold(ops, args)
+        if kind == "implicit":
+            return self.fold([np.multiply] * (len(args) - 1), args)
+        if kind == "power":
+            return self.emit(np.power, args)
+        if kind == "signed":
+            minus = sum(1 for c in children if isinstance(c, lark.Token) and c.value == "-")
+            return self.emit(np.negative, args) if minus % 2 else args[0]
+        if kind == "comparison":
+            return self.emit(_BINARY[children[1].value], args)
+        if kind == "not_":
+            nots = sum(1 for c in children if isinstance(c, lark.Token) and c.type == "NOT")
+            return self.emit(_not if nots % 2 else _truth, args)
+        if kind == "and_":
+            return self.fold([np.logical_and] * (len(args) - 1), args)
+        if kind == "or_":
+            return self.fold([np.logical_or] * (len(args) - 1), args)
+        raise AssertionError(f"grammar rule without a compiler: {kind}")
+
+    def compile(self, root: lark.Tree | lark.Token) -> _Val:
+        """Post-order walk with an explicit stack (no recursion), checking the depth."""
+        values: list[_Val] = []
+        stack: list[tuple[lark.Tree | lark.Token, int, bool]] = [(root, 0, False)]
+        while stack:
+            item, depth, expanded = stack.pop()
+            if isinstance(item, lark.Token):
+                values.append(self.number(item) if item.type == "NUMBER" else self.name(item))
+                continue
+            if expanded:
+                n = sum(1 for c in item.children if _is_operand(c))
+                args = values[len(values) - n :]
+                del values[len(values) - n :]
+                values.append(self.node(item, args))
+                continue
+            if depth >= MAX_DEPTH:
+                raise self.src.error(
+                    DesignSyntaxError,
+                    f"expression nested too deeply (more than {MAX_DEPTH} levels)",
+                    item.meta.start_pos,
+                    "split it into simpler expressions",
+                )
+            stack.append((item, depth, True))
+            stack.extend((c, depth + 1, False) for c in reversed(item.children) if _is_operand(c))
+        return values[0]
+
+
+def _is_operand(child: lark.Tree | lark.Token) -> bool:
+    return isinstance(child, lark.Tree) or child.type in ("NUMBER", "NAME")
+
+
+# -- the compiled expression ---------------------------------------------------------------
+
+
+class Expression:
+    """A compiled expression: call it on coordinate arrays to get float64 values.
+
+    Attributes:
+        text: the expression as written.
+        variables: canonical lowercase names of the variables it uses (``phic`` and
+            ``theta`` appear as ``phi``); ``'d'`` means the caller must pass ``d``.
+        file, line, column: where the text starts (for messages).
+    """
+
+    __slots__ = ("text", "variables", "file", "line", "column", "_steps", "_template", "_result", "_d_offset")
+
+    def __init__(
+        self,
+        text: str,
+        variables: frozenset[str],
+        file: str | None,
+        line: int,
+        column: int,
+        steps: list[_Step],
+        template: list,
+        result: _Val,
+        d_offset: int | None,
+    ) -> None:
+        self.text = text
+        self.variables = variables
+        self.file = file
+        self.line = line
+        self.column = column
+        self._steps = steps
+        self._template = template
+        self._result = result
+        self._d_offset = d_offset
+
+    def __repr__(self) -> str:
+        return f"Expression({self.text!r})"
+
+    def __reduce__(self):
+        return (_recompile, (self.text, self.file, self.line, self.column))
+
+    def _source(self) -> _Source:
+        return _Source(self.text, self.file, self.line, self.column)
+
+    def __call__(self, x, y, z, d=None) -> np.ndarray:
+        """Values at the points ``(x, y, z)`` (mm; broadcast-compatible arrays or scalars).
+
+        ``d`` (the signed distance of the fgrade's child, mm) is needed only when
+        ``'d' in self.variables``. Returns a new float64 array of the broadcast shape.
+        NaN/inf results are returned as such; see :meth:`evaluate_checked`.
+        """
+        coords = {"x": np.asarray(x, dtype=np.float64), "y": np.asarray(y, dtype=np.float64)}
+        coords["z"] = np.asarray(z, dtype=np.float64)
+        if d is not None:
+            coords["d"] = np.asarray(d, dtype=np.float64)
+        elif "d" in self.variables:
+            raise self._source().error(
+                DesignError,
+                "'d' (the signed distance of the fgrade's child) is not available here",
+                self._d_offset or 0,
+                "use d only in the material expressions of an fgrade",
+            )
+        shape = np.broadcast_shapes(*(a.shape for a in coords.values()))
+        if self._result.const is not None:
+            return np.full(shape, self._result.const)
+        inputs = [(_SLOTS[name], np.broadcast_to(values, shape)) for name, values in coords.items()]
+        row = math.prod(shape[1:])
+        if not shape or shape[0] * row <= _BLOCK:
+            return self._run(inputs, shape)
+        # Blocks of whole rows keep the temporaries in cache and the allocations small.
+        out = np.empty(shape)
+        rows = max(1, _BLOCK // max(row, 1))
+        for start in range(0, shape[0], rows):
+            block = slice(start, start + rows)
+            out[block] = self._run([(slot, v[block]) for slot, v in inputs], out[block].shape)
+        return out
+
+    def _run(self, inputs: list[tuple[int, np.ndarray]], shape: tuple[int, ...]) -> np.ndarray:
+        """Run the program on one block of broadcast input views of ``shape``."""
+        r = self._template.copy()
+        r[_SHAPE] = shape
+        for slot, values in inputs:
+            r[slot] = values
+        with np.errstate(all="ignore"):
+            for step in self._steps:
+                step(r)
+        result = r[self._result.slot]
+        return result if self._result.fresh else np.array(result, dtype=np.float64)
+
+    def evaluate_checked(self, x, y, z, d=None) -> np.ndarray:
+        """Like calling the expression, but raise :class:`FieldError` on NaN or inf.
+
+        The error names the expression's location and the first offending point (in C
+        order of the broadcast arrays) with its coordinates in mm.
+        """
+        values = self(x, y, z, d)
+        bad = ~np.isfinite(values)
+        if not bad.any():
+            return values
+        index = np.unravel_index(int(np.argmax(bad)), values.shape)
+        point = [float(np.broadcast_to(np.asarray(c, dtype=np.float64), values.shape)[index]) for c in (x, y, z)]
+        where = f"x={point[0]:g}, y={point[1]:g}, z={point[2]:g}"
+        if d is not None:
+            where += f", d={float(np.broadcast_to(np.asarray(d, dtype=np.float64), values.shape)[index]):g}"
+        value = float(values[index])
+        kind = "NaN (not a number)" if math.isnan(value) else f"{value:g}"
+        short = " ".join(self.text.split())
+        short = short if len(short) <= 60 else short[:57] + "..."
+        line, column = self.line, self.column
+        raise FieldError(
+            f"expression '{short}' is {kind} at {where}",
+            file=self.file,
+            line=line,
+            column=column,
+            hint="look for division by zero, log or sqrt of a negative number, or a huge power; "
+            "guard with max(..., 1e-9) or clamp(lo, x, hi)",
+            source_line=self._source().source_line(line),
+        )
+
+
+def _recompile(text: str, file: str | None, line: int, column: int) -> Expression:
+    """Unpickling: compile the text again (compiled steps are closures)."""
+    return compile_expression(text, file=file, line=line, column=column)
+
+
+def compile_expression(text: str, *, file: str | Path | None = None, line: int = 1, column: int = 1) -> Expression:
+    """Compile expression ``text`` whose first character is at ``line``/``column`` of ``file``.
+
+    Raises:
+        DesignSyntaxError: the text is not an expression of the language (including text
+            longer than :data:`MAX_LENGTH`, nesting deeper than :data:`MAX_DEPTH` and
+            numbers that overflow float64).
+        DesignError: an unknown name, a function used as a value, a wrong argument count.
+    """
+    src = _Source(text, None if file is None else str(file), line, column)
+    if len(text) > MAX_LENGTH:
+        raise src.error(
+            DesignSyntaxError,
+            f"expression too long ({len(text)} characters; the limit is {MAX_LENGTH})",
+            0,
+            "split it into simpler expressions",
+        )
+    if not text.strip(" \t\r\n"):
+        raise src.error(DesignSyntaxError, "empty expression", 0, "write a value, e.g. 'z/70'")
+    try:
+        tree = _PARSER.parse(text.translate(_LOWER))
+    except lark.exceptions.UnexpectedInput as exc:
+        raise _syntax_error(src, exc) from None
+    compiler = _Compiler(src)
+    result = compiler.compile(tree)
+    used = compiler.used
+    needed = used | {"r"} if "phis" in used else used
+    steps = [run for name, run in _DERIVED if name in needed]
+    return Expression(
+        text,
+        frozenset(used),
+        src.file,
+        line,
+        column,
+        steps + compiler.steps,
+        compiler.template,
+        result,
+        compiler.d_offset,
+    )
