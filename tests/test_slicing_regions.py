@@ -214,6 +214,5 @@ def test_non_finite_fractions_are_reported():
         return np.stack(np.broadcast_arrays(a, 1 - a), axis=-1)
 
     design = Prism(shapely.box(-10, -10, 10, 10), 1.0, broken)
-    design.fractions = lambda x, y, z: broken(*np.broadcast_arrays(x, y, z)[:2])
     with pytest.raises(FieldError, match="not finite"):
         first_layer(design, Palette(2, 4))
