@@ -1,0 +1,338 @@
+"""Purge towers (strategy 1): flush the old state out of the nozzle after every change.
+
+After a state change the melt chamber still holds ``V_melt`` of the old mixture (a mixing
+hotend), the previous tool's ooze (a toolchanger: one purge per tool change), or a nozzle
+that has not reached its new temperature yet (the temperature dialect: ``M104`` does not
+wait, so the purge is also the time the temperature gets to settle). Before printing a
+color group whose :class:`SetState` changes the state, the nozzle lays ``L`` mm of bead
+on a tower beside the part, with the capsule model of Appendix A::
+
+    L = V_melt / (h (w - h) + pi h^2 / 4)
+
+With ``purge_scale_by_change`` the length is ``L * max_i |f_i(new) - f_i(old)|`` over the
+two states' palette centers (a change between neighbouring colors of a 16-color palette
+purges 1/16 of ``L``); the first change of a print (old state unknown) purges ``L``.
+
+The tower is a rectangle sized so the layer with the most changes fits: each change owns
+``rows_per_change`` back-and-forth rows at spacing ``w`` inside a perimeter. Every layer
+prints the perimeter and a sparse fill over the rows no purge used (in the state the
+layer starts in), so the tower never stands on air, from the bed up to the part's top.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+
+from fgslice.errors import SettingsError, SliceError
+from fgslice.planning.lookahead import path_lengths, split_path
+from fgslice.planning.plan import LayerPlan, SetState, Step
+from fgslice.settings import Settings
+from fgslice.toolpaths.paths import Path, Role, bead_area
+
+#: Filament density used for purge mass, g/cm^3 (PLA; TPU is about 1.2, LW-PLA unfoamed 1.2).
+PLA_DENSITY_G_CM3 = 1.24
+#: Gap kept between the tower and the part's footprint (skirt included), mm.
+TOWER_CLEARANCE_MM = 3.0
+#: Smallest tower side, mm, so a tall tower stays standing.
+MIN_TOWER_SIDE_MM = 10.0
+#: Spacing of the sparse fill lines printed where no purge happened on a layer, mm.
+SPARSE_SPACING_MM = 2.0
+#: Width/depth ratios tried for the tower, squarest first.
+ASPECTS = (1.0, 2.0, 0.5, 4.0, 0.25)
+#: Color of paths printed in "whatever state the printer is in".
+CURRENT_STATE = -1
+
+
+def purge_length(melt_volume_mm3: float, bead_width: float, layer_height: float) -> float:
+    """``L = V_melt / (h (w - h) + pi h^2 / 4)``, mm of bead that extrudes ``V_melt``."""
+    return melt_volume_mm3 / bead_area(bead_width, layer_height)
+
+
+@dataclass(frozen=True)
+class PurgeTower:
+    """A rectangular purge tower on the bed.
+
+    Attributes:
+        x0, y0, x1, y1: outer edges of the tower in the bed frame, mm.
+        line_width: bead width of its lines, mm.
+        purge_mm: purge length per (full) change at the nominal layer height, mm.
+        rows_per_change: back-and-forth rows each change owns on a layer.
+        rows: rows per layer (at least ``changes_per_layer * rows_per_change``).
+        changes_per_layer: most changes a layer may hold.
+        n_layers: layers the tower is printed on (the part's layers).
+    """
+
+    x0: float
+    y0: float
+    x1: float
+    y1: float
+    line_width: float
+    purge_mm: float
+    rows_per_change: int
+    rows: int
+    changes_per_layer: int
+    n_layers: int
+
+    @classmethod
+    def plan(
+        cls, part_footprint: shapely.Geometry, settings: Settings, changes_per_layer: int, n_layers: int
+    ) -> "PurgeTower":
+        """Size and place the tower clear of ``part_footprint`` (bed frame, skirt included).
+
+        The position is ``(purge_tower_x, purge_tower_y)`` (the tower's center) when set,
+        else the first free spot right of the part, left, behind, in front, then anywhere
+        on the bed nearest the part; squarer shapes are tried first.
+
+        Raises:
+            SettingsError: only one of purge_tower_x / purge_tower_y is set.
+            SliceError: the chosen spot overlaps the part or leaves the bed, or no spot fits.
+        """
+        w = settings.bead_width
+        changes = max(1, int(changes_per_layer))
+        length = purge_length(settings.melt_volume_mm3, w, settings.layer_height)
+        sizes = [_tower_size(length, changes, w, aspect) for aspect in ASPECTS]
+        keepout = shapely.buffer(part_footprint, TOWER_CLEARANCE_MM)
+        shapely.prepare(keepout)
+        bed = (settings.bed_x, settings.bed_y)
+        fixed = (settings.purge_tower_x, settings.purge_tower_y)
+        if (fixed[0] is None) != (fixed[1] is None):
+            raise SettingsError(
+                "purge_tower_x and purge_tower_y must be set together",
+                hint="--set purge_tower_x=<mm> --set purge_tower_y=<mm>, or both 'auto'",
+            )
+        for width, depth, rows_per_change, rows in sizes:
+            if fixed[0] is not None:
+                centers = np.array([fixed], dtype=np.float64)
+            else:
+                centers = _candidate_centers(keepout.bounds, width, depth, bed)
+            ok = _fits(centers, width, depth, keepout, bed)
+            if ok.any():
+                cx, cy = (float(v) for v in centers[np.argmax(ok)])
+                return cls(cx - width / 2, cy - depth / 2, cx + width / 2, cy + depth / 2, w, length,
+                           rows_per_change, rows, changes, n_layers)
+        width, depth = sizes[0][:2]
+        what = f"{width:.0f} x {depth:.0f} mm purge tower ({changes} changes per layer x {length:.0f} mm of purge)"
+        if fixed[0] is not None:
+            raise SliceError(
+                f"a {what} centered at ({fixed[0]:g}, {fixed[1]:g}) overlaps the part or its skirt "
+                f"(clearance {TOWER_CLEARANCE_MM:g} mm) or leaves the {bed[0]:g} x {bed[1]:g} mm bed",
+                hint="move it (purge_tower_x/purge_tower_y), or --set purge_tower_x=auto --set purge_tower_y=auto",
+            )
+        raise SliceError(
+            f"no room on the {bed[0]:g} x {bed[1]:g} mm bed for a {what} beside the part",
+            hint="--set purge=false, a smaller palette (--set colors=...), or a smaller melt_volume_mm3",
+        )
+
+    @property
+    def footprint(self) -> shapely.Polygon:
+        """The tower's rectangle in the bed frame."""
+        return shapely.box(self.x0, self.y0, self.x1, self.y1)
+
+    def purge_path(self, slot: int, length: float, color: int, height: float) -> Path:
+        """Back-and-forth lines of ``length`` mm over the rows of change ``slot`` on a layer."""
+        w = self.line_width
+        first = slot * self.rows_per_change
+        y = self.y0 + w + w * np.arange(first, first + self.rows_per_change)
+        xa, xb = self.x0 + w, self.x1 - w
+        x = np.tile([xa, xb, xb, xa], (self.rows_per_change + 1) // 2)[: 2 * self.rows_per_change]
+        path = Path(np.c_[x, np.repeat(y, 2)], Role.WIPE_TOWER, color, w, height)
+        full = path.length
+        if length > full + 1e-6:
+            raise ValueError(f"purge of {length:.1f} mm exceeds the tower's {full:.1f} mm per change")
+        return path if length >= full - 1e-9 else split_path(path, [length])[0]
+
+    def base_paths(self, used_slots: int, color: int, height: float) -> list[Path]:
+        """The tower's perimeter and a sparse fill over the rows the purges left empty."""
+        w = self.line_width
+        h2 = w / 2
+        ring = np.array([[self.x0 + h2, self.y0 + h2], [self.x1 - h2, self.y0 + h2],
+                         [self.x1 - h2, self.y1 - h2], [self.x0 + h2, self.y1 - h2]])
+        paths = [Path(ring, Role.WIPE_TOWER, color, w, height, closed=True)]
+        first_free = used_slots * self.rows_per_change
+        if first_free >= self.rows:
+            return paths
+        ya, yb = self.y0 + w + w * first_free, self.y0 + w * self.rows
+        xa, xb = self.x0 + w, self.x1 - w
+        if yb - ya < w:
+            paths.append(Path(np.array([[xa, ya], [xb, ya]]), Role.WIPE_TOWER, color, w, height))
+            return paths
+        x = np.linspace(xa, xb, max(2, int(np.ceil((xb - xa) / SPARSE_SPACING_MM)) + 1))
+        y = np.tile([ya, yb, yb, ya], (x.size + 1) // 2)[: 2 * x.size]
+        paths.append(Path(np.c_[np.repeat(x, 2), y], Role.WIPE_TOWER, color, w, height))
+        return paths
+
+
+@dataclass
+class PurgeStats:
+    """What the purges cost; filled while :func:`insert_purges` runs.
+
+    Attributes:
+        density_g_cm3: filament density used for masses, g/cm^3.
+        changes: purged state changes.
+        purge_mm3: volume of the purge lines, mm^3.
+        tower_base_mm3: volume of the tower's perimeters and sparse fill, mm^3.
+        extruded_mm3: everything the plans extrude, tower included, mm^3.
+    """
+
+    density_g_cm3: float = PLA_DENSITY_G_CM3
+    changes: int = 0
+    purge_mm3: float = 0.0
+    tower_base_mm3: float = 0.0
+    extruded_mm3: float = 0.0
+
+    @property
+    def purge_g(self) -> float:
+        """Mass of the purge lines, g."""
+        return self.purge_mm3 * self.density_g_cm3 / 1000.0
+
+    @property
+    def tower_mm3(self) -> float:
+        """Volume of the whole tower (purges and base), mm^3."""
+        return self.purge_mm3 + self.tower_base_mm3
+
+    @property
+    def tower_g(self) -> float:
+        """Mass of the whole tower, g."""
+        return self.tower_mm3 * self.density_g_cm3 / 1000.0
+
+    @property
+    def waste_share(self) -> float:
+        """Share of all extruded filament that goes into the tower (0..1)."""
+        return self.tower_mm3 / self.extruded_mm3 if self.extruded_mm3 > 0 else 0.0
+
+
+def insert_purges(
+    plans: Iterable[LayerPlan],
+    tower: PurgeTower | None,
+    settings: Settings,
+    palette,
+    stats: PurgeStats | None = None,
+) -> Iterator[LayerPlan]:
+    """Add the purge tower to each layer, serially and streaming.
+
+    Tracks the commanded state across layers. On each layer: skirt paths stay first;
+    before the layer's first :class:`SetState` the tower's perimeter and sparse fill are
+    printed in the state the layer starts in; after every SetState that changes the
+    state, a purge of the new color (role WIPE_TOWER) on the tower. With
+    ``settings.purge`` false or no tower the plans pass through unchanged.
+
+    Args:
+        plans: ordered layer plans (from :func:`fgslice.planning.order.order_layer`).
+        tower: from :meth:`PurgeTower.plan`.
+        settings: uses ``purge``, ``melt_volume_mm3``, ``bead_width``, ``purge_scale_by_change``.
+        palette: its ``centers`` ((N, k) fractions) size scaled purges.
+        stats: filled with volumes as layers go by; read it once the iterator is exhausted.
+
+    Raises:
+        ValueError: a layer holds more changes, or lies higher, than the tower was planned for.
+    """
+    stats = stats if stats is not None else PurgeStats()
+    if not settings.purge or tower is None:
+        for plan in plans:
+            stats.extruded_mm3 += _volume(plan.paths)
+            yield plan
+        return
+    centers = np.asarray(palette.centers, dtype=np.float64)
+    state: int | None = None
+    for plan in plans:
+        if plan.index >= tower.n_layers:
+            raise ValueError(f"layer {plan.index} is above the {tower.n_layers} layers the tower was planned for")
+        changes = _count_changes(plan, state)
+        if changes > tower.changes_per_layer:
+            raise ValueError(
+                f"layer {plan.index} has {changes} state changes; the tower was sized for {tower.changes_per_layer}"
+            )
+        base = tower.base_paths(changes, CURRENT_STATE if state is None else state, plan.height)
+        steps: list[Step] = []
+        placed = False
+        slot = 0
+        for step in plan.steps:
+            if not isinstance(step, SetState):
+                steps.append(step)
+                continue
+            if not placed:
+                steps.extend(base)
+                placed = True
+            steps.append(step)
+            if step.color == state:
+                continue
+            length = purge_length(settings.melt_volume_mm3, tower.line_width, plan.height)
+            if settings.purge_scale_by_change and state is not None:
+                length *= float(np.max(np.abs(centers[step.color] - centers[state])))
+            purge = tower.purge_path(slot, length, step.color, plan.height)
+            steps.append(purge)
+            stats.purge_mm3 += _volume([purge])
+            stats.changes += 1
+            slot += 1
+            state = step.color
+        if not placed:
+            steps.extend(base)
+        out = LayerPlan(index=plan.index, z=plan.z, height=plan.height, steps=steps)
+        stats.tower_base_mm3 += _volume(base)
+        stats.extruded_mm3 += _volume(out.paths)
+        yield out
+
+
+def _count_changes(plan: LayerPlan, state: int | None) -> int:
+    """How many of the layer's SetStates change the state, starting from ``state``."""
+    changes = 0
+    for step in plan.steps:
+        if isinstance(step, SetState) and step.color != state:
+            changes += 1
+            state = step.color
+    return changes
+
+
+def _volume(paths: list[Path]) -> float:
+    """Extruded volume of ``paths`` by the capsule model, mm^3."""
+    if not paths:
+        return 0.0
+    areas = np.array([bead_area(p.width, p.height) for p in paths])
+    return float(np.dot(path_lengths(paths), areas))
+
+
+def _tower_size(length: float, changes: int, w: float, aspect: float) -> tuple[float, float, int, int]:
+    """(width, depth, rows per change, rows) of a tower with ``width / depth >= aspect``.
+
+    Rows run along X at spacing ``w`` inside a one-bead perimeter; a change owns enough
+    rows for ``length`` mm of back-and-forth line (row length plus ``w`` per turn).
+    """
+    run = max(math.sqrt(changes * length * w * aspect) - 2 * w, MIN_TOWER_SIDE_MM - 2 * w)
+    while True:
+        per_change = math.ceil((length + w) / (run + w))
+        rows = max(changes * per_change, math.ceil(MIN_TOWER_SIDE_MM / w) - 1)
+        width, depth = run + 2 * w, (rows + 1) * w
+        if width >= aspect * depth:
+            return width, depth, per_change, rows
+        run += w
+
+
+def _candidate_centers(bounds, width: float, depth: float, bed: tuple[float, float]) -> np.ndarray:
+    """Tower centers to try: beside the keep-out box (right, left, behind, front), then a
+    grid over the bed ordered by distance to the part."""
+    minx, miny, maxx, maxy = bounds
+    cx, cy = (minx + maxx) / 2, (miny + maxy) / 2
+    gap = 1e-3  # touching the keep-out counts as overlapping
+    sides = [(maxx + width / 2 + gap, cy), (minx - width / 2 - gap, cy),
+             (cx, maxy + depth / 2 + gap), (cx, miny - depth / 2 - gap)]
+    step = max(2.0, min(width, depth) / 4)
+    gx, gy = np.meshgrid(np.arange(width / 2, bed[0] - width / 2 + 1e-9, step),
+                         np.arange(depth / 2, bed[1] - depth / 2 + 1e-9, step))
+    grid = np.c_[gx.ravel(), gy.ravel()]
+    grid = grid[np.argsort(np.hypot(grid[:, 0] - cx, grid[:, 1] - cy), kind="stable")]
+    return np.vstack([np.array(sides), grid])
+
+
+def _fits(centers: np.ndarray, width: float, depth: float, keepout: shapely.Geometry, bed) -> np.ndarray:
+    """Which candidate towers lie on the bed and clear of ``keepout``."""
+    x0, y0 = centers[:, 0] - width / 2, centers[:, 1] - depth / 2
+    x1, y1 = x0 + width, y0 + depth
+    on_bed = (x0 >= 0) & (y0 >= 0) & (x1 <= bed[0]) & (y1 <= bed[1])
+    ok = on_bed.copy()
+    ok[on_bed] = ~shapely.intersects(shapely.box(x0[on_bed], y0[on_bed], x1[on_bed], y1[on_bed]), keepout)
+    return ok

@@ -1,0 +1,141 @@
+"""Purge towers: placement, purge length per change, a tower on every layer, statistics."""
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+import shapely
+
+from fgslice.errors import SettingsError, SliceError
+from fgslice.planning.order import order_layer
+from fgslice.planning.plan import SetState
+from fgslice.planning.purge import (
+    PLA_DENSITY_G_CM3,
+    TOWER_CLEARANCE_MM,
+    PurgeStats,
+    PurgeTower,
+    insert_purges,
+)
+from fgslice.settings import Settings
+from fgslice.toolpaths.paths import LayerPaths, Path, Role, bead_area
+
+PALETTE = SimpleNamespace(centers=np.array([[0.125, 0.875], [0.375, 0.625], [0.625, 0.375], [0.875, 0.125]]))
+PART = shapely.box(80, 80, 130, 120)
+FOOTPRINT = shapely.buffer(PART, 3.5)  # part plus skirt
+
+
+def layer_plans(n_layers, colors=(0, 1, 2, 3)):
+    """Order real layers: each color owns a vertical band of infill lines of the part."""
+    plans, position = [], np.array([0.0, 0.0])
+    for k in range(n_layers):
+        paths = [Path(np.array([[80.0 + 12.5 * c + 0.4 * i, 80.0], [80.0 + 12.5 * c + 0.4 * i, 120.0]]),
+                      Role.SOLID_INFILL, c, 0.4, 0.2) for c in colors for i in range(30)]
+        if k == 0:
+            paths.append(Path(np.array(shapely.buffer(PART, 3).exterior.coords[:-1]), Role.SKIRT, -1, 0.4, 0.2, closed=True))
+        order = np.array(colors) if k % 2 == 0 else np.array(colors)[::-1]
+        plan = order_layer(LayerPaths(k, 0.2 * (k + 1), 0.2, paths), order, position, "walls_first")
+        position = plan.paths[-1].end
+        plans.append(plan)
+    return plans
+
+
+def purges_per_change(plans):
+    """Total WIPE_TOWER length following each SetState, and the state changes seen."""
+    out, state = [], None
+    for plan in plans:
+        steps = plan.steps
+        for i, step in enumerate(steps):
+            if isinstance(step, SetState):
+                length = 0.0
+                for nxt in steps[i + 1:]:
+                    if not isinstance(nxt, Path) or nxt.role is not Role.WIPE_TOWER:
+                        break
+                    assert nxt.color == step.color
+                    length += nxt.length
+                out.append((plan.index, state, step.color, length))
+                state = step.color
+    return out
+
+
+def test_each_change_purges_the_melt_volume_and_unchanged_states_purge_nothing():
+    settings = Settings(melt_volume_mm3=20.0)
+    plans = layer_plans(6)
+    tower = PurgeTower.plan(FOOTPRINT, settings, changes_per_layer=4, n_layers=6)
+    stats = PurgeStats()
+    out = list(insert_purges(iter(plans), tower, settings, PALETTE, stats))
+    expected = 20.0 / (0.2 * (0.4 - 0.2) + np.pi * 0.2**2 / 4)
+    records = purges_per_change(out)
+    changed = [r for r in records if r[1] != r[2]]
+    same = [r for r in records if r[1] == r[2]]
+    assert all(r[3] == pytest.approx(expected, rel=0.05) for r in changed)
+    # Reversed order on odd layers: the first color of layer k+1 is the last of layer k.
+    assert len(same) == 5 and all(r[3] == 0.0 for r in same)
+    assert stats.changes == len(changed) == 4 + 5 * 3
+    assert stats.purge_mm3 == pytest.approx(stats.changes * 20.0, rel=0.05)
+    assert stats.purge_g == pytest.approx(stats.purge_mm3 * PLA_DENSITY_G_CM3 / 1000)
+    part_mm3 = sum(p.length * bead_area(p.width, p.height) for plan in plans for p in plan.paths)
+    assert stats.extruded_mm3 == pytest.approx(part_mm3 + stats.tower_mm3, rel=1e-9)
+    assert 0 < stats.waste_share < 1
+    assert stats.waste_share == pytest.approx(stats.tower_mm3 / stats.extruded_mm3)
+    # The part's own paths are untouched and in the same order.
+    for before, after in zip(plans, out):
+        assert [p for p in after.paths if p.role is not Role.WIPE_TOWER] == before.paths
+
+
+def test_tower_is_on_the_bed_clear_of_the_part_and_printed_on_every_layer():
+    settings = Settings()
+    tower = PurgeTower.plan(FOOTPRINT, settings, changes_per_layer=4, n_layers=5)
+    box = tower.footprint
+    assert shapely.distance(box, FOOTPRINT) >= TOWER_CLEARANCE_MM - 1e-6
+    assert shapely.within(box, shapely.box(0, 0, settings.bed_x, settings.bed_y))
+    # Sized so four full purges fit: rows of lines at spacing w cover 4 L w of area.
+    assert box.area >= 4 * tower.purge_mm * settings.bead_width
+    out = list(insert_purges(iter(layer_plans(5)), tower, settings, PALETTE))
+    for plan in out:
+        tower_paths = [p for p in plan.paths if p.role is Role.WIPE_TOWER]
+        printed = shapely.union_all(shapely.buffer([shapely.LineString(p.vertices) for p in tower_paths], 0.2,
+                                                  cap_style="square", join_style="mitre"))
+        assert shapely.within(printed, box.buffer(1e-6))
+        # Perimeter plus fill: the whole box outline is printed and lines reach every part of it.
+        assert printed.area > 0.25 * box.area
+        assert shapely.buffer(printed, 2.5).covers(box)
+        assert shapely.within(box.exterior, printed.buffer(1e-6))
+
+
+def test_scaled_purges_follow_the_size_of_the_change():
+    settings = Settings(purge_scale_by_change=True, melt_volume_mm3=30.0)
+    tower = PurgeTower.plan(FOOTPRINT, settings, changes_per_layer=4, n_layers=2)
+    full = 30.0 / settings.bead_area
+    records = purges_per_change(insert_purges(iter(layer_plans(2, colors=(0, 2, 3))), tower, settings, PALETTE))
+    lengths = {(a, b): length for _, a, b, length in records if a != b}
+    assert lengths[(None, 0)] == pytest.approx(full, rel=0.05)  # unknown start: a full purge
+    assert lengths[(0, 2)] == pytest.approx(0.5 * full, rel=0.05)
+    assert lengths[(2, 3)] == pytest.approx(0.25 * full, rel=0.05)
+
+
+def test_purge_off_passes_plans_through():
+    plans = layer_plans(2)
+    settings = Settings(purge=False)
+    out = list(insert_purges(iter(plans), None, settings, PALETTE))
+    assert all(a is b for a, b in zip(out, plans))
+
+
+def test_placement_errors_are_explained():
+    with pytest.raises(SliceError, match="overlaps the part") as err:
+        PurgeTower.plan(FOOTPRINT, Settings(purge_tower_x=100, purge_tower_y=100), 4, 10)
+    assert "purge_tower_x" in err.value.hint
+    with pytest.raises(SliceError, match="leaves the 220 x 220 mm bed"):
+        PurgeTower.plan(FOOTPRINT, Settings(purge_tower_x=215, purge_tower_y=100), 4, 10)
+    placed = PurgeTower.plan(FOOTPRINT, Settings(purge_tower_x=40, purge_tower_y=40), 2, 10)
+    assert placed.footprint.centroid.equals_exact(shapely.Point(40, 40), 1e-9)
+    with pytest.raises(SliceError, match="no room") as err:
+        PurgeTower.plan(shapely.box(5, 5, 215, 215), Settings(), 16, 10)
+    assert "purge=false" in err.value.hint
+    with pytest.raises(SettingsError, match="together"):
+        PurgeTower.plan(FOOTPRINT, Settings(purge_tower_x=40), 2, 10)
+
+
+def test_a_layer_with_more_changes_than_planned_is_refused():
+    tower = PurgeTower.plan(FOOTPRINT, Settings(), changes_per_layer=2, n_layers=3)
+    with pytest.raises(ValueError, match="sized for 2"):
+        list(insert_purges(iter(layer_plans(1)), tower, Settings(), PALETTE))
