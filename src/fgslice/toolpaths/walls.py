@@ -106,7 +106,9 @@ def make_walls(outline, count: int, width: float, height: float, *, outer_first:
 
     Loop ``k`` is the boundary of the outline eroded by ``w / 2 + k s`` (``s`` from
     :func:`bead_spacing`), opened by ``s / 2`` so that no loop is printed around a
-    sliver narrower than the bead spacing (its two sides would overlap). Loop 0 of
+    sliver narrower than the bead spacing (its two sides would overlap); the opening is
+    computed as erosion by ``w / 2 + k s + s / 2`` then dilation by ``s / 2``, and the
+    last erosion is the inner area. Loop 0 of
     each island and of each hole has role EXTERNAL_PERIMETER, the others PERIMETER.
 
     Args:
@@ -121,8 +123,9 @@ def make_walls(outline, count: int, width: float, height: float, *, outer_first:
     if count == 0 or outline.is_empty:
         return Walls([], offset(outline, -width / 2))
     dist = width / 2 + s * np.arange(count)
-    centers = opening(offset(outline, -dist), s / 2)
-    inner = offset(centers[-1], -s / 2)
+    eroded = offset(outline, -(dist + s / 2))
+    centers = offset(eroded, s / 2)
+    inner = eroded[-1]
     coords, ring_idx, loop = ring_groups(centers)
     roles = np.where(loop == 0, Role.EXTERNAL_PERIMETER, Role.PERIMETER)
     paths = split_rings(coords, ring_idx, roles, color, width, height)

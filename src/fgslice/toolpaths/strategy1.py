@@ -1,0 +1,353 @@
+"""Strategy 1, "preserving traditional toolpaths": walls, skins and infill on the
+outline, then each path cut into palette colors along the material field.
+
+Cutting needs no polygon clipping. Every path is densified to sub-segments of at most
+``w / 2``; the field is evaluated at all sub-segment midpoints of the layer in one call
+and each midpoint gets ``palette.color_of`` (or its zipper color, see
+:mod:`fgslice.toolpaths.zipper`). Where the color changes between two consecutive
+sub-segments, the cut is placed at the crossing, found by :data:`BISECTION_STEPS`
+vectorized bisection steps along the path between the two midpoints. Pieces shorter
+than a bead are merged into their longer neighbour. Units mm; bed frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+
+from fgslice.settings import Settings
+from fgslice.slicing.layers import LayerRegions
+from fgslice.toolpaths.infill import uncovered_area
+from fgslice.toolpaths.paths import LayerPaths, Path
+from fgslice.toolpaths.simplify import simplify_paths
+from fgslice.toolpaths.skins import fill_inner, split_inner
+from fgslice.toolpaths.walls import make_walls
+from fgslice.toolpaths.zipper import tooth_length, zipper_labels
+
+BISECTION_STEPS = 8
+"""Bisection steps placing each cut (the crossing is found to ``w / 2^9`` or better)."""
+
+WARN_QUANTILE = 0.1
+"""Share of the cut-bounded pieces allowed below ``min_segment_mm`` in the palette advice."""
+
+
+def layer_paths(
+    regions: LayerRegions,
+    below: list[shapely.Geometry],
+    above: list[shapely.Geometry],
+    field,
+    palette,
+    settings: Settings,
+) -> tuple[LayerPaths, list[str]]:
+    """Toolpaths of one layer, cut into colors, and warnings (short pieces).
+
+    Args:
+        regions: the layer (only ``outline`` is used for geometry).
+        below, above: outlines of the ``bottom_layers`` layers below and ``top_layers``
+            above, nearest first (fewer near the bottom/top of the part).
+        field: object with ``fractions(xy (N,2), z) -> (N, k)`` in the bed frame.
+        palette: object with ``color_of``, ``zipper_neighbor`` and ``size``.
+        settings: bead width, layer height, walls, skins, infill, zipper, tolerance.
+    """
+    w, h = settings.bead_width, settings.layer_height
+    walls = make_walls(regions.outline, settings.walls, w, h, outer_first=settings.wall_order == "outer_first")
+    areas = split_inner(walls.inner, regions.outline, below, above, settings)
+    raw = walls.paths + fill_inner(areas, regions.index, settings)
+    cut = cut_by_color(raw, field, palette, regions.z_plane, regions.index, settings)
+    out = LayerPaths(regions.index, regions.z, regions.height)
+    out.paths = simplify_paths(cut.paths, settings.gcode_resolution)
+    out.uncovered_mm2 = uncovered_area(regions.outline, w)
+    return out, short_piece_warnings(cut.bounded_lengths, palette.size, settings.min_segment_mm, regions.index)
+
+
+@dataclass(frozen=True)
+class Cut:
+    """Result of :func:`cut_by_color`.
+
+    Attributes:
+        paths: the colored pieces.
+        bounded_lengths: lengths (mm) of the pieces cut at both ends (these shrink
+            roughly as 1 / palette size; pieces ending at a path's end do not).
+    """
+
+    paths: list[Path]
+    bounded_lengths: np.ndarray
+
+
+@dataclass(frozen=True)
+class _Dense:
+    """Densified sub-segments of a set of paths (flat arrays, one row per sub-segment)."""
+
+    pid: np.ndarray
+    segment: np.ndarray
+    p0: np.ndarray
+    p1: np.ndarray
+    length: np.ndarray
+    arc_mid: np.ndarray
+    mid: np.ndarray
+
+
+def _densify(verts: np.ndarray, pid: np.ndarray, arc: np.ndarray, step: float) -> _Dense:
+    """Split every segment into equal sub-segments of at most ``step`` mm."""
+    seg = np.flatnonzero(pid[1:] == pid[:-1])
+    a, b = verts[seg], verts[seg + 1]
+    length = np.hypot(*(b - a).T)
+    n = np.maximum(np.ceil(length / step), 1).astype(np.int64)
+    src = np.repeat(np.arange(len(seg)), n)
+    j = np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)
+    t0, t1 = j / n[src], (j + 1) / n[src]
+    d = (b - a)[src]
+    first_vertex = np.searchsorted(pid, pid[seg])
+    sub = length[src] / n[src]
+    p0, p1 = a[src] + d * t0[:, None], a[src] + d * t1[:, None]
+    return _Dense(
+        pid=pid[seg][src],
+        segment=(seg - first_vertex)[src],
+        p0=p0,
+        p1=p1,
+        length=sub,
+        arc_mid=arc[seg][src] + length[src] * t0 + sub / 2,
+        mid=(p0 + p1) / 2,
+    )
+
+
+def _point_on(dense: _Dense, k: np.ndarray, nxt: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Point at distance ``u`` along the path from the midpoint of sub-segment ``k``
+    towards the midpoint of the next one ``nxt``."""
+    half_k, half_n = dense.length[k] / 2, dense.length[nxt] / 2
+    mk, mn = dense.mid[k], dense.mid[nxt]
+    first = u <= half_k
+    ta = np.where(first, u / half_k, 1.0)[:, None]
+    tb = np.where(first, 0.0, (u - half_k) / half_n)[:, None]
+    return np.where(first[:, None], mk + (dense.p1[k] - mk) * ta, dense.p0[nxt] + (mn - dense.p0[nxt]) * tb)
+
+
+def _refine(dense, k, nxt, predicate) -> np.ndarray:
+    """Distance past the midpoint of ``k`` where ``predicate(points)`` turns False."""
+    lo = np.zeros(len(k))
+    hi = dense.length[k] / 2 + dense.length[nxt] / 2
+    for _ in range(BISECTION_STEPS):
+        mid = (lo + hi) / 2
+        same = predicate(_point_on(dense, k, nxt, mid))
+        lo, hi = np.where(same, mid, lo), np.where(same, hi, mid)
+    return (lo + hi) / 2
+
+
+def cut_by_color(paths: list[Path], field, palette, z: float, layer_index: int, settings: Settings) -> Cut:
+    """Cut ``paths`` into pieces of one color each (see the module docstring)."""
+    if not paths:
+        return Cut([], np.empty(0))
+    w = settings.bead_width
+    beta = settings.zipper
+    verts_list = [p.vertices for p in paths]
+    counts = np.array([len(v) for v in verts_list])
+    verts = np.vstack(verts_list)
+    pid = np.repeat(np.arange(len(paths)), counts)
+    closed = np.array([p.closed for p in paths])
+    step = np.r_[0.0, np.hypot(*np.diff(verts, axis=0).T)]
+    step[np.r_[False, pid[1:] != pid[:-1]]] = 0.0
+    cum = np.cumsum(step)
+    first_vertex = np.r_[0, np.cumsum(counts)[:-1]]
+    arc = cum - cum[first_vertex][pid]
+    total = arc[np.cumsum(counts) - 1]
+
+    dense = _densify(verts, pid, arc, w / 2)
+    fractions = field.fractions(dense.mid, z)
+    color = np.asarray(palette.color_of(fractions), dtype=np.int64)
+    neighbor = np.asarray(palette.zipper_neighbor(fractions, beta), dtype=np.int64) if beta > 0 else np.full(len(color), -1)
+    label = zipper_labels(
+        color, neighbor, dense.pid, dense.segment, dense.arc_mid, dense.length, closed, layer_index,
+        tooth_length(w, settings.min_segment_mm),
+    )
+
+    # cuts between consecutive sub-segments (and across the start of closed paths)
+    first_sub = np.searchsorted(dense.pid, np.arange(len(paths)))
+    last_sub = np.r_[first_sub[1:], len(dense.pid)] - 1
+    inner = np.flatnonzero((dense.pid[1:] == dense.pid[:-1]) & (label[1:] != label[:-1]))
+    wrap = np.flatnonzero(closed & (label[last_sub] != label[first_sub]))
+    k = np.r_[inner, last_sub[wrap]]
+    nxt = np.r_[inner + 1, first_sub[wrap]]
+    u = dense.length[k] / 2
+    band_k, band_n = neighbor[k] >= 0, neighbor[nxt] >= 0
+    field_cut = ~band_k & ~band_n
+    band_cut = band_k != band_n
+    if field_cut.any():
+        ks, ns = k[field_cut], nxt[field_cut]
+        want = color[ks]
+        u[field_cut] = _refine(dense, ks, ns, lambda xy: palette.color_of(field.fractions(xy, z)) == want)
+    if band_cut.any():
+        ks, ns = k[band_cut], nxt[band_cut]
+        want = band_k[band_cut]
+        u[band_cut] = _refine(dense, ks, ns, lambda xy: (palette.zipper_neighbor(field.fractions(xy, z), beta) >= 0) == want)
+    cpid = dense.pid[k]
+    carc = np.mod(dense.arc_mid[k] + u, total[cpid])
+    order = np.lexsort((carc, cpid))
+    cpid, carc, clab = cpid[order], carc[order], label[nxt][order]
+    bounds = np.searchsorted(cpid, np.arange(len(paths) + 1))
+
+    whole: list[Path] = []
+    rows: list[tuple[int, float, float, int]] = []
+    for i, path in enumerate(paths):
+        a, b = bounds[i], bounds[i + 1]
+        first_label = int(label[first_sub[i]])
+        if a == b:
+            whole.append(path.with_color(first_label))
+            continue
+        cuts, labs = carc[a:b], clab[a:b].tolist()
+        length = float(total[i])
+        if path.closed:
+            starts, ends = cuts.tolist(), np.r_[cuts[1:], cuts[0] + length].tolist()
+        else:
+            starts, ends, labs = [0.0] + cuts.tolist(), cuts.tolist() + [length], [first_label] + labs
+        starts, ends, labs = _merge_short(starts, ends, labs, w, path.closed, length)
+        if len(labs) == 1 and path.closed:
+            whole.append(path.with_color(labs[0]))
+            continue
+        rows += [(i, s0, s1, lab) for s0, s1, lab in zip(starts, ends, labs)]
+    pieces = whole + _pieces(paths, verts, pid, arc, total, rows)
+    runs = _color_runs(color, dense.pid, dense.length, closed)
+    return Cut(pieces, runs)
+
+
+def _pieces(paths, verts, pid, arc, total, rows) -> list[Path]:
+    """Build the pieces ``rows = [(path, start arc, end arc, color)]`` in bulk.
+
+    A piece whose end passes its (closed) path's length wraps over the path's start.
+    """
+    if not rows:
+        return []
+    rpid = np.array([r[0] for r in rows])
+    s0 = np.array([r[1] for r in rows])
+    s1 = np.array([r[2] for r in rows])
+    wraps = s1 > total[rpid]
+    # wrapped pieces become two parts: [s0, total] and [0, s1 - total]
+    part_pid = np.r_[rpid, rpid[wraps]]
+    part_s0 = np.r_[s0, np.zeros(wraps.sum())]
+    part_s1 = np.r_[np.minimum(s1, total[rpid]), s1[wraps] - total[rpid[wraps]]]
+    gap = np.r_[0.0, np.cumsum(total + 1.0)[:-1]]
+    g_arc = arc + gap[pid]
+    g0, g1 = part_s0 + gap[part_pid], part_s1 + gap[part_pid]
+    first = np.searchsorted(pid, part_pid)
+    last = np.searchsorted(pid, part_pid, side="right") - 1
+    head, tail = _points_at(verts, g_arc, g0, first, last), _points_at(verts, g_arc, g1, first, last)
+    i0 = np.searchsorted(g_arc, g0, side="right")
+    i1 = np.maximum(np.searchsorted(g_arc, g1, side="left"), i0)
+    inner = i1 - i0
+    size = inner + 2
+    offsets = np.r_[0, np.cumsum(size)]
+    out = np.empty((offsets[-1], 2))
+    out[offsets[:-1]] = head
+    out[offsets[1:] - 1] = tail
+    slot = np.ones(offsets[-1], dtype=bool)
+    slot[offsets[:-1]] = slot[offsets[1:] - 1] = False
+    src = np.arange(inner.sum()) - np.repeat(np.cumsum(inner) - inner, inner) + np.repeat(i0, inner)
+    out[slot] = verts[src]
+    n_rows = len(rows)
+    extra = dict(zip(np.flatnonzero(wraps).tolist(), range(n_rows, n_rows + int(wraps.sum()))))
+    pieces = []
+    for r, (i, _, _, lab) in enumerate(rows):
+        pts = out[offsets[r] : offsets[r + 1]]
+        if r in extra:
+            e = extra[r]
+            pts = np.vstack([pts, out[offsets[e] + 1 : offsets[e + 1]]])
+        p = paths[i]
+        pieces.append(Path(pts, p.role, lab, p.width, p.height, False))
+    return pieces
+
+
+def _points_at(verts, g_arc, g, first, last) -> np.ndarray:
+    """Points at global arc positions ``g`` on paths spanning vertices ``first..last``."""
+    idx = np.clip(np.searchsorted(g_arc, g, side="right") - 1, first, last - 1)
+    span = g_arc[idx + 1] - g_arc[idx]
+    t = np.clip(np.divide(g - g_arc[idx], span, out=np.zeros_like(g), where=span > 0), 0.0, 1.0)
+    return verts[idx] + (verts[idx + 1] - verts[idx]) * t[:, None]
+
+
+def _color_runs(color, pid, length, closed) -> np.ndarray:
+    """Lengths of field-color runs bounded by color changes at both ends, mm.
+
+    Computed on the densified sub-segments (accurate to a sub-segment), with runs
+    of closed paths joined over the path start.
+    """
+    start = np.r_[True, (pid[1:] != pid[:-1]) | (color[1:] != color[:-1])]
+    run = np.cumsum(start) - 1
+    run_len = np.bincount(run, weights=length)
+    run_pid = pid[start]
+    run_color = color[start]
+    first_run = np.searchsorted(run_pid, run_pid, side="left")
+    last_run = np.searchsorted(run_pid, run_pid, side="right") - 1
+    idx = np.arange(len(run_len))
+    single = first_run == last_run
+    c = closed[run_pid]
+    joined = c & ~single & (run_color[first_run] == run_color[last_run])
+    length_out = run_len.copy()
+    at_first = joined & (idx == first_run)
+    length_out[at_first] += run_len[last_run[at_first]]
+    keep = ~single & ~(joined & (idx == last_run))
+    keep &= c | ((idx != first_run) & (idx != last_run))
+    return length_out[keep]
+
+
+def _merge_short(starts: list, ends: list, labels: list, min_length: float, closed: bool, total: float):
+    """Give each piece shorter than ``min_length`` its longer neighbour's color and
+    join neighbours of equal color (cyclically for closed paths)."""
+    while len(labels) > 1:
+        lengths = np.subtract(ends, starts)
+        i = int(np.argmin(lengths))
+        if lengths[i] >= min_length:
+            break
+        n = len(labels)
+        prev = (i - 1) % n if (closed or i > 0) else None
+        nxt = (i + 1) % n if (closed or i < n - 1) else None
+        options = [j for j in (prev, nxt) if j is not None]
+        labels[i] = labels[max(options, key=lambda j: lengths[j])]
+        starts, ends, labels = _join_equal(starts, ends, labels, closed, total)
+    return starts, ends, labels
+
+
+def _join_equal(starts: list, ends: list, labels: list, closed: bool, total: float):
+    """Merge consecutive pieces of the same color (for a closed path of length
+    ``total``, the last piece continues into the first one)."""
+    s, e, lab = [starts[0]], [ends[0]], [labels[0]]
+    for s0, e0, l0 in zip(starts[1:], ends[1:], labels[1:]):
+        if l0 == lab[-1]:
+            e[-1] = e0
+        else:
+            s.append(s0), e.append(e0), lab.append(l0)
+    if closed and len(lab) > 1 and lab[0] == lab[-1]:
+        e[-1] = e[0] + total
+        s, e, lab = s[1:], e[1:], lab[1:]
+    return s, e, lab
+
+
+def _slice(verts: np.ndarray, arc: np.ndarray, s0: float, s1: float, total: float) -> np.ndarray:
+    """Points of a path between arc positions ``s0 < s1`` (``s1`` may pass ``total``
+    on a closed path, wrapping past its start)."""
+    if s1 > total:
+        head = _slice(verts, arc, s0, total, total)
+        tail = _slice(verts, arc, 0.0, s1 - total, total)
+        return np.vstack([head, tail[1:]])
+    inside = (arc > s0) & (arc < s1)
+    x0 = [np.interp(s0, arc, verts[:, 0]), np.interp(s0, arc, verts[:, 1])]
+    x1 = [np.interp(s1, arc, verts[:, 0]), np.interp(s1, arc, verts[:, 1])]
+    return np.vstack([x0, verts[inside], x1])
+
+
+def short_piece_warnings(bounded: np.ndarray, palette_size: int, min_segment_mm: float, layer_index: int) -> list[str]:
+    """A warning when color pieces are shorter than ``min_segment_mm``.
+
+    Pieces cut at both ends shrink roughly as ``1 / N`` with the palette size ``N``, so
+    a palette of ``N * L_q / min_segment_mm`` colors keeps all but the shortest
+    :data:`WARN_QUANTILE` of them long enough (``L_q`` that quantile of their lengths).
+    """
+    if len(bounded) == 0 or min_segment_mm <= 0 or bounded.min() >= min_segment_mm:
+        return []
+    short = int(np.sum(bounded < min_segment_mm))
+    suggestion = max(1, int(palette_size * np.quantile(bounded, WARN_QUANTILE) / min_segment_mm))
+    return [
+        f"layer {layer_index}: {short} of {len(bounded)} color pieces are shorter than "
+        f"min_segment_mm = {min_segment_mm:g} mm (shortest {bounded.min():.2f} mm); a palette of "
+        f"at most {suggestion} colors would keep them long enough"
+    ]

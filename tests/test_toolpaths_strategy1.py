@@ -1,0 +1,131 @@
+"""Strategy 1: walls/skins/infill on the outline, cut into colors along the field."""
+
+import numpy as np
+import pytest
+import shapely
+
+from fgslice.settings import Settings
+from fgslice.slicing.layers import LayerRegions
+from fgslice.slicing.palette import Palette
+from fgslice.toolpaths import strategy1
+from fgslice.toolpaths.paths import Role, bead_area
+
+W, H = 0.4, 0.2
+
+
+class LinearField:
+    """First material's fraction rises linearly from x0 to x1 (bed frame)."""
+
+    def __init__(self, x0=0.0, x1=60.0):
+        self.x0, self.x1 = x0, x1
+
+    def fractions(self, xy, z):
+        f = np.clip((xy[:, 0] - self.x0) / (self.x1 - self.x0), 0, 1)
+        return np.column_stack([f, 1 - f])
+
+
+def plate():
+    body = shapely.box(0, 0, 60, 40).difference(shapely.Point(30, 20).buffer(6, quad_segs=32))
+    return shapely.MultiPolygon([body])
+
+
+def run(settings, index=3, below=None, above=None, field=None, colors=4, outline=None):
+    outline = outline or plate()
+    below = [outline] * 3 if below is None else below
+    above = [outline] * 3 if above is None else above
+    regions = LayerRegions(index, (index + 1) * H, H, outline, ())
+    palette = Palette(2, colors)
+    return strategy1.layer_paths(regions, below, above, field or LinearField(), palette, settings), palette
+
+
+def point_at(path, fraction):
+    line = shapely.LineString(path.vertices)
+    return np.array(line.interpolate(fraction, normalized=True).coords[0])
+
+
+def test_piece_colors_match_field_and_cuts_sit_on_crossings():
+    settings = Settings(strategy=1, walls=3, infill_density=20, min_segment_mm=0)
+    (lp, warnings), palette = run(settings, colors=6)
+    field = LinearField()
+    assert warnings == []
+    long = [p for p in lp.paths if p.length >= 2 * W]
+    mids = np.array([point_at(p, 0.5) for p in long])
+    colors = palette.color_of(field.fractions(mids, 0))
+    assert np.all(colors == [p.color for p in long])
+    # both ends of each piece lie in the piece's color (cut at the crossing, +-0.01 mm)
+    for p in long:
+        line = shapely.LineString(p.vertices)
+        ends = np.array([line.interpolate(0.01).coords[0], line.interpolate(line.length - 0.01).coords[0]])
+        assert np.all(palette.color_of(field.fractions(ends, 0)) == p.color)
+    assert {p.color for p in lp.paths} == set(range(6))
+
+
+def test_cutting_keeps_length_and_stays_inside():
+    one = Settings(strategy=1, walls=2, infill_density=30, colors=1)
+    many = Settings(strategy=1, walls=2, infill_density=30, min_segment_mm=0)
+    (lp1, _), _ = run(one, colors=1)
+    (lp4, _), _ = run(many, colors=4)
+    l1, l4 = sum(p.length for p in lp1.paths), sum(p.length for p in lp4.paths)
+    assert l4 == pytest.approx(l1, rel=1e-3)
+    outline = plate()
+    for p in lp4.paths:
+        assert outline.covers(shapely.LineString(p.vertices))
+    assert all(p.length >= W - 1e-6 for p in lp4.paths)
+
+
+def test_walls_and_holes():
+    settings = Settings(strategy=1, walls=3, infill_density=0, colors=1)
+    (lp, _), _ = run(settings, colors=1)
+    walls = [p for p in lp.paths if p.role in (Role.EXTERNAL_PERIMETER, Role.PERIMETER)]
+    assert len(walls) == 6  # 3 around the plate, 3 around the hole
+    assert sum(p.role is Role.EXTERNAL_PERIMETER for p in walls) == 2
+    d = shapely.distance(shapely.points(np.vstack([p.points for p in walls if p.role is Role.EXTERNAL_PERIMETER])), plate().boundary)
+    assert np.allclose(d, W / 2, atol=0.02)
+
+
+def test_skins_from_neighbours():
+    settings = Settings(strategy=1, walls=2, infill_density=20, colors=1, top_layers=2, bottom_layers=2)
+    outline = plate()
+    (middle, _), _ = run(settings, colors=1)
+    roles = {p.role for p in middle.paths}
+    assert Role.TOP_SOLID_INFILL not in roles and Role.SOLID_INFILL not in roles
+    (first, _), _ = run(settings, index=0, below=[], colors=1)
+    solid = sum(p.length for p in first.paths if p.role is Role.SOLID_INFILL)
+    assert {p.role for p in first.paths} >= {Role.SOLID_INFILL}
+    assert Role.INTERNAL_INFILL not in {p.role for p in first.paths}
+    (top, _), _ = run(settings, above=[outline], colors=1)
+    assert Role.TOP_SOLID_INFILL in {p.role for p in top.paths}
+    # a smaller layer above: only the exposed ring is top skin
+    small = shapely.box(15, 10, 45, 30)
+    (partial, _), _ = run(settings, above=[small, small], colors=1)
+    skin = [p for p in partial.paths if p.role is Role.TOP_SOLID_INFILL]
+    skin_area = sum(p.length for p in skin) * bead_area(W, H) / H
+    inner = outline.buffer(-(W / 2 + 1.5 * (bead_area(W, H) / H)), join_style="mitre")
+    expected = inner.difference(small).area
+    assert skin_area == pytest.approx(expected, rel=0.05)
+    assert solid > 0
+
+
+def test_sparse_infill_density():
+    settings = Settings(strategy=1, walls=2, infill_density=25, colors=1, top_layers=0, bottom_layers=0)
+    (lp, _), _ = run(settings, colors=1)
+    sparse = [p for p in lp.paths if p.role is Role.INTERNAL_INFILL]
+    s = bead_area(W, H) / H
+    region = plate().buffer(-(W / 2 + 1.5 * s), join_style="mitre")
+    error = sum(p.length for p in sparse) * bead_area(W, H) / (region.area * H * 0.25) - 1
+    assert abs(error) < 0.05
+
+
+def test_short_piece_warning_suggests_a_smaller_palette():
+    settings = Settings(strategy=1, walls=2, infill_density=0, min_segment_mm=5)
+    (_, warnings), _ = run(settings, colors=4)
+    assert warnings == []
+    (_, warnings), _ = run(settings, colors=32)
+    assert len(warnings) == 1
+    suggested = int(warnings[0].split("at most ")[1].split()[0])
+    # bands of 60/N mm; pieces along x-running walls are ~60/N long: N <= 12 keeps 5 mm
+    assert 6 <= suggested <= 12
+    (_, warnings), _ = run(settings, colors=suggested)
+    if warnings:  # only a few grazing pieces (around the hole) may stay short
+        short, total = (int(v) for v in warnings[0].split(": ")[1].split(" color")[0].split(" of "))
+        assert short <= 0.15 * total
