@@ -17,9 +17,9 @@ from fgslice.analysis.calibrate import (
 from fgslice.analysis.simulate import MeltModel, simulate_trace, trace_from_plans
 from fgslice.design.base import Design, Material
 from fgslice.errors import SettingsError
-from fgslice.planning.plan import LayerPlan, SetState
+from fgslice.planning.lookahead import apply_lookahead
+from fgslice.planning.plan import SetState
 from fgslice.settings import Settings
-from fgslice.toolpaths.paths import Path
 
 CENTERS = np.array([[0.0, 1.0], [1.0, 0.0]])   # color 1 = pure A, color 0 = pure B
 
@@ -50,20 +50,6 @@ class StepBox(Design):
         return shapely.MultiPolygon([shapely.box(-self.half[0], -self.half[1], self.half[0], self.half[1])])
 
 
-def _shift_change(plan: LayerPlan, distance: float) -> LayerPlan:
-    """Issue the layer's second SetState ``distance`` mm of path earlier (look-ahead by hand)."""
-    first_state, first, second_state, second = plan.steps
-    pts = first.points
-    seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
-    remaining = np.cumsum(seg[::-1])[::-1]          # path length from each vertex to the end
-    i = np.flatnonzero(remaining >= distance)[-1]   # the cut lies on segment i
-    t = (remaining[i] - distance) / seg[i]
-    cut = pts[i] + (pts[i + 1] - pts[i]) * (1 - t)
-    early = Path(np.vstack([pts[: i + 1], cut]), first.role, first.color, first.width, first.height)
-    late = Path(np.vstack([cut, pts[i + 1 :], second.points[1:]]), second.role, second.color, second.width, second.height)
-    return LayerPlan(plan.index, plan.z, plan.height, [first_state, early, second_state, late])
-
-
 def _offsets(settings, plans, share):
     trace = trace_from_plans(plans, CENTERS, settings)
     offset = (settings.bed_x / 2, settings.bed_y / 2, 0.3)   # lowest point of the box on the bed
@@ -80,7 +66,7 @@ def test_calibration_object_geometry():
     assert len(plans) == 3
     for plan in plans:
         states = [s.color for s in plan.steps if isinstance(s, SetState)]
-        assert len(states) == 2 and states[0] != states[1]
+        assert states == ([1, 0] if plan.index == 0 else [plan.index % 2])   # one change per layer
         first, second = plan.paths
         # the change happens exactly at the midpoint in X, at the end of the first half
         assert first.points[-1][0] == pytest.approx(settings.bed_x / 2)
@@ -89,7 +75,7 @@ def test_calibration_object_geometry():
         assert pts[:, 0].max() - pts[:, 0].min() == pytest.approx(60.0 - settings.bead_width)
         assert pts[:, 1].max() - pts[:, 1].min() == pytest.approx(20.0)
     even, odd = plans[0], plans[1]
-    assert even.steps[0].color == 1 and odd.steps[0].color == 0      # A first, then B first
+    assert even.paths[0].color == 1 and odd.paths[0].color == 0      # A first, then B first
     # A is printed on x < midpoint on every layer
     for plan in plans:
         for path in plan.paths:
@@ -111,7 +97,7 @@ def test_transition_without_lookahead_lags_by_melt_volume():
 def test_transition_with_lookahead_l_lands_on_the_midpoint():
     settings = Settings(melt_volume_mm3=68.5)
     length = lookahead_from_volume(68.5, settings.bead_width, settings.layer_height)
-    plans = [_shift_change(p, length) for p in calibration_plan(settings, CENTERS)]
+    plans = list(apply_lookahead(calibration_plan(settings, CENTERS), length))
     offsets = _offsets(settings, plans, share=0.0)
     assert np.all(np.abs(offsets) <= settings.bead_width)
 
@@ -124,7 +110,7 @@ def test_well_mixed_share_moves_the_half_way_point_to_the_median_delay():
     median = (1 - share + share * math.log(2)) * length
     plain = _offsets(settings, calibration_plan(settings, CENTERS), share)
     assert np.all(np.abs(plain / settings.bead_width - median / line) <= 1.0)
-    shifted = _offsets(settings, [_shift_change(p, length) for p in calibration_plan(settings, CENTERS)], share)
+    shifted = _offsets(settings, list(apply_lookahead(calibration_plan(settings, CENTERS), length)), share)
     assert np.all(np.abs(shifted / settings.bead_width - (median - length) / line) <= 1.0)
 
 

@@ -101,7 +101,8 @@ def calibration_plan(
         layers: number of layers.
 
     Returns:
-        One :class:`LayerPlan` per layer: ``SetState``, path, ``SetState``, path.
+        One :class:`LayerPlan` per layer: path, ``SetState``, path (the first layer
+        starts with a ``SetState`` of A).
     """
     w, h = settings.bead_width, settings.layer_height
     lines = 2 * max(1, round(length_x / (2 * w)))
@@ -128,10 +129,13 @@ def calibration_plan(
         halves = [(first, color_a), (second, color_b)]
         if k % 2:
             halves = [(second[::-1].copy(), color_b), (first[::-1].copy(), color_a)]
-        steps = []
-        for pts, color in halves:
-            steps.append(SetState(color))
-            steps.append(ToolPath(points=pts, role=Role.SOLID_INFILL, color=color, width=w, height=h))
+        (pts_1, color_1), (pts_2, color_2) = halves
+        steps = [SetState(color_1)] if k == 0 else []
+        steps += [
+            ToolPath(points=pts_1, role=Role.SOLID_INFILL, color=color_1, width=w, height=h),
+            SetState(color_2),
+            ToolPath(points=pts_2, role=Role.SOLID_INFILL, color=color_2, width=w, height=h),
+        ]
         plans.append(LayerPlan(index=k, z=(k + 1) * h, height=h, steps=steps))
     return plans
 

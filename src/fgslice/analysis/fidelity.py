@@ -87,9 +87,9 @@ def mixture_lab(fractions: np.ndarray, materials: Sequence[Material]) -> np.ndar
     """CIELAB (D65) of compositions ``(..., k)`` mixed linearly in linear-sRGB, ``(..., 3)``."""
     srgb = np.array([m.rgba[:3] for m in materials], dtype=float)
     linear = colour.cctf_decoding(srgb, function="sRGB")
-    mixed = np.asarray(fractions, dtype=float) @ linear
-    xyz = colour.RGB_to_XYZ(mixed, colour.RGB_COLOURSPACES["sRGB"], apply_cctf_decoding=False)
-    return colour.XYZ_to_Lab(xyz, _D65)
+    # linear-sRGB -> XYZ is a matrix, so mixing the materials' XYZ is mixing in linear-sRGB
+    xyz_materials = colour.RGB_to_XYZ(linear, colour.RGB_COLOURSPACES["sRGB"], apply_cctf_decoding=False)
+    return colour.XYZ_to_Lab(np.asarray(fractions, dtype=float) @ xyz_materials, _D65)
 
 
 def delta_e_2000(lab_1: np.ndarray, lab_2: np.ndarray) -> np.ndarray:
