@@ -9,8 +9,10 @@ centerline lies exactly ``w / 2`` inside the face, then filled:
   direction ``infill_angle`` on even layers and ``infill_angle + 90`` on odd ones,
   linked into serpentines (SOLID_INFILL).
 
-Parts of a face too narrow for a bead are not printed; their area is reported in
-``LayerPaths.uncovered_mm2``.
+Slivers thinner than a spacing left between loops are printed as narrower gap-fill
+loops (:func:`~fgslice.toolpaths.infill.concentric_levels`). Paths are simplified to
+``gcode_resolution`` before they are returned. Parts of a face narrower than a bead
+are not printed; their area is reported in ``LayerPaths.uncovered_mm2``.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from fgslice.settings import Settings
 from fgslice.slicing.layers import LayerRegions
 from fgslice.toolpaths.infill import concentric_levels, rectilinear, uncovered_area
 from fgslice.toolpaths.paths import LayerPaths, Role
+from fgslice.toolpaths.simplify import simplify_paths
 from fgslice.toolpaths.walls import bead_spacing, offset, opening
 
 
@@ -42,5 +45,6 @@ def layer_paths(regions: LayerRegions, settings: Settings) -> LayerPaths:
         angle = settings.infill_angle + 90.0 * (regions.index % 2)
         for color, area in enumerate(inner):
             out.paths += rectilinear(area, 100.0, angle, w, h, Role.SOLID_INFILL, color=color)
+    out.paths = simplify_paths(out.paths, settings.gcode_resolution)
     out.uncovered_mm2 = uncovered_area(faces, w)
     return out
