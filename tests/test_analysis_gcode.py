@@ -8,7 +8,7 @@ import pytest
 from fgslice.analysis.fidelity import fidelity
 from fgslice.analysis.simulate import read_header, simulate
 from fgslice.errors import GcodeError
-from fgslice.settings import Settings
+from fgslice.settings import Settings, load_settings
 from fgslice.slicing.layers import Placement
 from test_analysis_calibrate import StepBox
 
@@ -87,3 +87,18 @@ def test_placement_comment_is_used_when_no_placement_is_given():
 def test_unreadable_gcode_is_reported(tmp_path):
     with pytest.raises(GcodeError):
         simulate(tmp_path / "missing.gcode", StepBox(), None, Settings())
+
+
+@pytest.mark.parametrize(("lookahead", "expected_beads"), [("0", (10.0 / BEAD) / 20.0), ("auto", 0.0)])
+def test_calibration_gcode_round_trip(tmp_path, lookahead, expected_beads):
+    """Writer -> file -> reader -> simulation: the transition lags by L / L_y lines, or not at all with L."""
+    from fgslice.analysis.calibrate import calibration_midpoint, transition_offsets, write_calibration
+
+    settings = load_settings("marlin-mixing", {"lookahead_mm": lookahead, "mixing_share": "0", "melt_volume_mm3": "10"})
+    out = tmp_path / "cal.gcode"
+    stats = write_calibration(out, settings)
+    assert stats["layers"] == 3
+    result = simulate(out, StepBox(), Placement((settings.bed_x / 2, settings.bed_y / 2, 0.3)), settings)
+    assert result.palette_size == settings.colors                  # from the '; colors = N' comment
+    beads = transition_offsets(result, calibration_midpoint(settings)) / settings.bead_width
+    assert len(beads) == 3 and np.all(np.abs(beads - expected_beads) <= 1.0)
