@@ -462,13 +462,17 @@ def test_syntax_error_hints():
 def test_too_long_and_too_deep():
     with pytest.raises(DesignSyntaxError, match="too long"):
         compile_expression("x+" * 50_001 + "1")
-    with pytest.raises(DesignSyntaxError, match="nested too deeply") as info:
+    with pytest.raises(DesignSyntaxError, match="parentheses nested too deeply") as info:
         compile_expression("-(" * 300 + "x" + ")" * 300)
-    assert info.value.column == 2 * expressions.MAX_DEPTH + 1
-    with pytest.raises(DesignSyntaxError, match="nested too deeply"):
+    assert info.value.column == 2 * (expressions.MAX_DEPTH + 1)  # the 201st '('
+    with pytest.raises(DesignSyntaxError, match="expression nested too deeply") as info:
         compile_expression("x^" * 300 + "2")
-    # depth that only groups, and long flat chains, are fine
-    assert value("(" * 500 + "1" + ")" * 500) == 1.0
+    assert info.value.column == 2 * expressions.MAX_DEPTH + 1  # the 201st power
+    with pytest.raises(DesignSyntaxError, match="parentheses nested too deeply") as info:
+        compile_expression("1 + " + "(" * 10_000 + "x" + ")" * 10_000)
+    assert info.value.column == 5 + expressions.MAX_DEPTH
+    # nesting up to the limit, and long flat chains, are fine
+    assert value("(" * expressions.MAX_DEPTH + "1" + ")" * expressions.MAX_DEPTH) == 1.0
     assert value("+".join(["1"] * 5000)) == 5000.0
     deep = compile_expression("sin(" * 150 + "x" + ")" * 150)
     np.testing.assert_allclose(deep(X, 0, 0), _nested_sin(X, 150))

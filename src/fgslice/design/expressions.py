@@ -46,7 +46,7 @@ MAX_LENGTH = 100_000
 """Longest expression text accepted, in characters."""
 
 MAX_DEPTH = 200
-"""Deepest nesting of operations accepted (parentheses that only group do not count)."""
+"""Deepest nesting accepted, of parentheses and of operations."""
 
 # Operator precedence, loosest first: ?: / or / and / not / comparisons (non-chaining) /
 # + - / * / % / unary sign / implicit multiplication / ^ (right-associative; its exponent
@@ -626,6 +626,14 @@ class _Compiler:
         return values[0]
 
 
+def _deep_paren(text: str) -> int | None:
+    """Offset of the first '(' nested deeper than :data:`MAX_DEPTH`, or None."""
+    codes = np.frombuffer(text.encode("utf-32-le", "surrogatepass"), dtype=np.uint32)
+    depth = np.cumsum((codes == ord("(")).astype(np.int64) - (codes == ord(")")))
+    over = np.flatnonzero(depth > MAX_DEPTH)
+    return int(over[0]) if over.size else None
+
+
 def _is_operand(child: lark.Tree | lark.Token) -> bool:
     return isinstance(child, lark.Tree) or child.type in ("NUMBER", "NAME")
 
@@ -776,6 +784,14 @@ def compile_expression(text: str, *, file: str | Path | None = None, line: int =
         )
     if not text.strip(" \t\r\n"):
         raise src.error(DesignSyntaxError, "empty expression", 0, "write a value, e.g. 'z/70'")
+    too_deep = _deep_paren(text)
+    if too_deep is not None:
+        raise src.error(
+            DesignSyntaxError,
+            f"parentheses nested too deeply (more than {MAX_DEPTH} levels)",
+            too_deep,
+            "split it into simpler expressions",
+        )
     try:
         tree = _PARSER.parse(text.translate(_LOWER))
     except lark.exceptions.UnexpectedInput as exc:
