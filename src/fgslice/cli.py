@@ -1,0 +1,179 @@
+"""The ``fgslice`` command line: parse arguments, call the library, print results.
+
+Every :class:`~fgslice.errors.FgsliceError` is printed in a few lines (what, where, how
+to fix) and the process exits with status 2; an interruption exits with 130 and leaves
+no partial output file.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import click
+
+from fgslice.errors import FgsliceError, OutputError
+
+
+def _fail(error: FgsliceError) -> None:
+    click.echo(error.format(), err=True)
+    sys.exit(error.exit_code)
+
+
+class _Group(click.Group):
+    """Turns fgslice errors and Ctrl-C into short messages instead of tracebacks."""
+
+    def invoke(self, ctx: click.Context):
+        try:
+            return super().invoke(ctx)
+        except FgsliceError as error:
+            _fail(error)
+        except KeyboardInterrupt:
+            click.echo("interrupted: no output file was written or changed", err=True)
+            sys.exit(130)
+
+
+@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="fgslice")
+def main() -> None:
+    """fgslice: slice functionally graded multi-material designs to G-code."""
+
+
+def _settings(profile: str | None, sets: tuple[str, ...], extra: dict | None = None):
+    from fgslice.settings import load_settings, parse_overrides
+
+    overrides = parse_overrides(sets)
+    overrides.update({k: v for k, v in (extra or {}).items() if v is not None})
+    return load_settings(profile, overrides)
+
+
+def _write_json(path: Path, data: dict) -> None:
+    from fgslice.output import atomic_output, check_writable
+
+    check_writable(path)
+    with atomic_output(path) as handle:
+        json.dump(data, handle, indent=2, default=float)
+        handle.write("\n")
+
+
+@main.command("slice")
+@click.argument("design", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), help="G-code file to write (default: DESIGN with .gcode).")
+@click.option("--profile", help="Built-in profile name (see 'fgslice profiles') or a TOML file.")
+@click.option("--strategy", type=click.Choice(["1", "2"]), help="1: walls/skins/infill cut into colors; 2: faces filled densely.")
+@click.option("--colors", type=int, help="Palette size N.")
+@click.option("--layer-height", type=float, help="Layer height h, mm.")
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="Override any setting (repeatable).")
+@click.option("--materials", type=click.Path(dir_okay=False, path_type=Path), help="Material library JSON.")
+@click.option("--stats", "stats_path", type=click.Path(dir_okay=False, path_type=Path), help="Write statistics as JSON.")
+@click.option("--jobs", type=int, help="Worker processes (default: all cores).")
+@click.option("--scheduler", help="Run layers on a Dask scheduler at this address.")
+def slice_command(design, output, profile, strategy, colors, layer_height, sets, materials, stats_path, jobs, scheduler):
+    """Slice DESIGN (.vcad) to printer-ready G-code."""
+    from fgslice.design import load_design
+    from fgslice.output import check_writable
+    from fgslice.pipeline import slice_to_gcode
+
+    output = output or design.with_suffix(".gcode")
+    settings = _settings(profile, sets, {"strategy": strategy, "colors": colors, "layer_height": layer_height})
+    check_writable(output, inputs=(design, materials))
+    if stats_path:
+        check_writable(stats_path, inputs=(design, output))
+    loaded = load_design(design, materials)
+    comments = {"design": str(design), "command": "fgslice " + " ".join(sys.argv[1:])}
+    with _progress("slicing") as progress:
+        result = slice_to_gcode(loaded, settings, output, jobs=jobs, scheduler=scheduler, comments=comments, progress=progress)
+    s = result.stats
+    if stats_path:
+        _write_json(stats_path, s)
+    for warning in s["warnings"]:
+        click.echo(f"warning: {warning}", err=True)
+    click.echo(
+        f"{output}: {s['layers']} layers, {s['colors']} colors, {s['extruded_mm3'] / 1000:.2f} cm3, "
+        f"{s['state_changes']} state changes, print {_duration(s['estimated_time_s'])}, "
+        f"sliced in {s['elapsed_s']:.2f} s"
+    )
+
+
+def _duration(seconds: float) -> str:
+    from fgslice.machine.gcode import format_duration
+
+    return format_duration(seconds)
+
+
+class _progress:
+    """A rich progress bar on a terminal; nothing when output is redirected."""
+
+    def __init__(self, label: str) -> None:
+        self.label = label
+        self.bar = None
+        self.task = None
+
+    def __enter__(self):
+        if not sys.stderr.isatty():
+            return None
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
+
+        from rich.console import Console
+
+        self.bar = Progress(
+            f"[bold]{self.label}", BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+            console=Console(stderr=True), transient=True,
+        )
+        self.bar.__enter__()
+        self.task = self.bar.add_task(self.label, total=None)
+        return self.update
+
+    def update(self, done: int, total: int) -> None:
+        self.bar.update(self.task, completed=done, total=total)
+
+    def __exit__(self, *exc) -> None:
+        if self.bar is not None:
+            self.bar.__exit__(*exc)
+
+
+@main.command("check")
+@click.argument("design", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--materials", type=click.Path(dir_okay=False, path_type=Path), help="Material library JSON.")
+def check_command(design, materials):
+    """Load DESIGN and report its materials, size and problems."""
+    from fgslice.design import check_design, format_report, load_design
+
+    report = check_design(load_design(design, materials))
+    click.echo(format_report(report))
+    sys.exit(0 if report.usable else 1)
+
+
+@main.command("profiles")
+@click.option("--keys", is_flag=True, help="List every setting with its default and meaning.")
+def profiles_command(keys):
+    """List the built-in printer profiles (or every setting with --keys)."""
+    from fgslice.settings import Settings, builtin_profiles
+
+    if keys:
+        for name, info in Settings.model_fields.items():
+            click.echo(f"{name} = {info.default!r}  # {info.description}")
+        return
+    for name, description in builtin_profiles().items():
+        click.echo(f"{name:20s} {description}")
+
+
+@main.command("verify")
+@click.argument("gcode", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--profile", help="Machine profile whose limits apply.")
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="Override any setting.")
+def verify_command(gcode, profile, sets):
+    """Check GCODE (from any slicer) against the machine's limits."""
+    from fgslice.machine.verify import format_faults, verify_gcode
+
+    faults = verify_gcode(gcode, _settings(profile, sets))
+    if faults:
+        click.echo(format_faults(faults))
+        click.echo(f"{gcode}: {len(faults)} fault(s)", err=True)
+        sys.exit(1)
+    click.echo(f"{gcode}: ok")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,127 @@
+"""Run a per-layer function over many layers: serially, in a local process pool, or on Dask.
+
+Every executor yields results in input order, so output built from them is identical
+whatever the executor and the number of workers. Workers receive the shared job state
+once (fork inheritance locally, a scattered object on Dask), then only layer indices.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+from typing import Any
+
+from fgslice.errors import SliceError
+
+_STATE: Any = None
+
+
+def _init_worker(state: Any) -> None:
+    global _STATE
+    _STATE = state
+
+
+def _call(fn: Callable[[Any, Any], Any], item: Any) -> Any:
+    return fn(_STATE, item)
+
+
+def default_jobs() -> int:
+    """All cores this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:
+        return max(1, os.cpu_count() or 1)
+
+
+def map_ordered(
+    fn: Callable[[Any, Any], Any],
+    state: Any,
+    items: Iterable[Any],
+    *,
+    jobs: int = 1,
+    scheduler: str | None = None,
+    window: int = 64,
+) -> Iterator[Any]:
+    """Yield ``fn(state, item)`` for each item, in order.
+
+    Args:
+        fn: a module-level function (picklable by reference).
+        state: shared, read-only job state handed to every call.
+        items: the work items (layer indices, usually).
+        jobs: local worker processes; 1 runs in this process.
+        scheduler: address of a Dask scheduler (``tcp://host:port``); overrides ``jobs``.
+        window: at most this many results are in flight or waiting, bounding memory.
+
+    Raises:
+        SliceError: a worker process died (killed, out of memory) or the scheduler
+            cannot be reached.
+    """
+    items = list(items)
+    if scheduler:
+        yield from _map_dask(fn, state, items, scheduler, window)
+    elif jobs <= 1 or len(items) <= 1:
+        for item in items:
+            yield fn(state, item)
+    else:
+        yield from _map_pool(fn, state, items, jobs, window)
+
+
+def _map_pool(fn, state, items, jobs, window) -> Iterator[Any]:
+    context = multiprocessing.get_context("fork")
+    pool = ProcessPoolExecutor(max_workers=jobs, mp_context=context, initializer=_init_worker, initargs=(state,))
+    pending: deque = deque()
+    try:
+        iterator = iter(items)
+        for item in iterator:
+            pending.append(pool.submit(_call, fn, item))
+            if len(pending) >= window:
+                break
+        while pending:
+            result = pending.popleft().result()
+            for item in iterator:
+                pending.append(pool.submit(_call, fn, item))
+                break
+            yield result
+    except BrokenProcessPool:
+        raise SliceError(
+            "a worker process died while slicing (killed, or out of memory); no output was written",
+            hint="retry with --jobs 1 to slice in one process",
+        ) from None
+    finally:
+        for future in pending:
+            future.cancel()
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _map_dask(fn, state, items, scheduler, window) -> Iterator[Any]:
+    try:
+        from distributed import Client
+    except ImportError:
+        raise SliceError(
+            "--scheduler needs dask.distributed, which is not installed",
+            hint="pip install 'fgslice[dask]'",
+        ) from None
+    try:
+        client = Client(scheduler, timeout="10s", set_as_default=False)
+    except (OSError, TimeoutError) as exc:
+        raise SliceError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
+    try:
+        state_future = client.scatter(state, broadcast=True)
+        pending: deque = deque()
+        iterator = iter(items)
+        for item in iterator:
+            pending.append(client.submit(fn, state_future, item, pure=False))
+            if len(pending) >= window:
+                break
+        while pending:
+            result = pending.popleft().result()
+            for item in iterator:
+                pending.append(client.submit(fn, state_future, item, pure=False))
+                break
+            yield result
+    finally:
+        client.close()

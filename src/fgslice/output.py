@@ -1,0 +1,72 @@
+"""Writing output files so that a failure never leaves a truncated or clobbered file.
+
+Output goes to a temporary file in the destination folder and is renamed over the
+destination only once it is complete; on any error or interruption the temporary file is
+removed and the previous destination (if any) is untouched.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+from typing import IO
+
+from fgslice.errors import OutputError
+
+
+def check_writable(path: str | Path, *, inputs: tuple[str | Path, ...] = ()) -> Path:
+    """Refuse early an output path that cannot be written or that names an input.
+
+    Raises:
+        OutputError: the folder is missing or not writable, the path is a folder, or it
+            is one of ``inputs`` (fgslice never overwrites its input).
+    """
+    target = Path(path)
+    resolved = target.resolve()
+    for source in inputs:
+        if source is not None and Path(source).resolve() == resolved:
+            raise OutputError(
+                f"output '{target}' is the input file; refusing to overwrite it",
+                hint="choose another output name with -o",
+            )
+    if target.is_dir():
+        raise OutputError(f"output '{target}' is a folder", hint="give a file name, e.g. -o part.gcode")
+    folder = resolved.parent
+    if not folder.is_dir():
+        raise OutputError(f"cannot write '{target}': folder '{folder}' does not exist", hint="create it first")
+    if not os.access(folder, os.W_OK) or (target.exists() and not os.access(target, os.W_OK)):
+        raise OutputError(f"cannot write '{target}': permission denied")
+    return target
+
+
+@contextlib.contextmanager
+def atomic_output(path: str | Path, mode: str = "w") -> Iterator[IO]:
+    """Open a temporary file beside ``path``; rename it to ``path`` when the block succeeds.
+
+    The handle's ``name`` is the temporary file's path, so the block can re-read what it
+    wrote (to verify it) before the rename.
+
+    Any exception (including KeyboardInterrupt) removes the temporary file and re-raises;
+    ``OSError`` while writing (a full disk, say) becomes :class:`OutputError`.
+    """
+    target = Path(path)
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=target.resolve().parent)
+    os.close(fd)
+    tmp = Path(tmp_name)
+    text = "b" not in mode
+    try:
+        with open(tmp, mode, encoding="utf-8" if text else None, newline="\n" if text else None) as handle:
+            yield handle
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, target)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise OutputError(f"could not write '{target}': {exc.strerror or exc}; nothing was written") from None
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise

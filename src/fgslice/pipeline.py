@@ -1,0 +1,263 @@
+"""The slicing pipeline end to end: design + settings -> G-code file + statistics.
+
+Stages (one module each; this file only wires them):
+
+1. placement and layer heights (``slicing.plan_layers``), the palette
+   (``slicing.palette``), the dialect (``machine.dialects``);
+2. per layer, in parallel (``executor.map_ordered``): outline and color faces
+   (``slicing.regions``), toolpaths (``toolpaths.strategy1`` / ``strategy2``), color and
+   travel order (``planning.order``); strategy 1 first sections every layer so that each
+   layer gets its neighbours' outlines for top and bottom skins;
+3. serially, streaming: purge towers (``planning.purge``), look-ahead of state changes
+   (``planning.lookahead``), the G-code writer (``machine.gcode``);
+4. the written file is verified (``machine.verify``) before it replaces the output.
+
+Output is byte-identical whatever the number of workers: every per-layer result depends
+only on the design, the settings and the layer index.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path as FilePath
+
+import numpy as np
+import shapely
+
+from fgslice.design.base import Design
+from fgslice.errors import SliceError
+from fgslice.executor import default_jobs, map_ordered
+from fgslice.machine.dialects import make_dialect
+from fgslice.machine.gcode import GcodeWriter
+from fgslice.machine.verify import format_faults, verify_gcode
+from fgslice.output import atomic_output
+from fgslice.planning.lookahead import apply_lookahead, apply_time_lead
+from fgslice.planning.order import order_layer
+from fgslice.planning.plan import LayerPlan
+from fgslice.planning.purge import PurgeStats, PurgeTower, insert_purges
+from fgslice.settings import Settings
+from fgslice.slicing.field import BedField
+from fgslice.slicing.layers import LayerRegions, Placement
+from fgslice.slicing.palette import Palette
+from fgslice.slicing.plan_layers import layer_heights, place_design
+from fgslice.slicing.regions import polygonal, slice_layer
+from fgslice.toolpaths import strategy1, strategy2
+from fgslice.toolpaths.paths import Path, Role
+from fgslice.toolpaths.skirt import skirt_paths
+
+
+@dataclass
+class SliceJob:
+    """Everything a per-layer worker needs (read-only once built)."""
+
+    design: Design
+    settings: Settings
+    palette: Palette
+    placement: Placement
+    layers: list[tuple[int, float, float]]
+    start_xy: np.ndarray
+    outlines: list[shapely.Geometry] = field(default_factory=list)
+
+
+@dataclass
+class LayerResult:
+    """What one layer's worker returns."""
+
+    plan: LayerPlan
+    warnings: list[str]
+    uncovered_mm2: float
+    colors: int
+
+
+@dataclass
+class SliceResult:
+    """A finished slice: where it went and its statistics (JSON-ready)."""
+
+    output: FilePath
+    stats: dict
+
+
+def _section_task(job: SliceJob, index: int) -> shapely.Geometry:
+    """Strategy 1, pass 1: the bed-frame outline of one layer."""
+    _, z_top, height = job.layers[index]
+    ox, oy, oz = job.placement.offset
+    section = job.design.section(z_top - height / 2 - oz)
+    return polygonal(shapely.transform(section, lambda c: c + np.array([ox, oy])))
+
+
+def _layer_task(job: SliceJob, index: int) -> LayerResult:
+    """Regions, toolpaths and order of one layer."""
+    s = job.settings
+    i, z_top, height = job.layers[index]
+    if s.strategy == 2:
+        regions = slice_layer(job.design, job.placement, job.palette, i, z_top, height, s)
+        paths = strategy2.layer_paths(regions, s)
+        warnings: list[str] = []
+    else:
+        outline = job.outlines[index]
+        regions = LayerRegions(index=i, z=z_top, height=height, outline=outline, faces=())
+        below = job.outlines[max(0, index - s.bottom_layers) : index][::-1]
+        above = job.outlines[index + 1 : index + 1 + s.top_layers]
+        field_ = BedField(job.design, job.placement)
+        paths, warnings = strategy1.layer_paths(regions, below, above, field_, job.palette, s)
+    if index == 0:
+        paths.paths = skirt_paths(regions.outline, s) + paths.paths
+    colors = len({p.color for p in paths.paths if p.color >= 0})
+    plan = order_layer(paths, job.palette.order_for_layer(i), job.start_xy, s.feature_order)
+    return LayerResult(plan=plan, warnings=warnings, uncovered_mm2=paths.uncovered_mm2, colors=colors)
+
+
+def _part_footprint(job: SliceJob) -> shapely.Geometry:
+    """The bed area the part and its skirt cover (bounding box of the part, grown by the skirt)."""
+    (x0, y0, _), (x1, y1, _) = job.design.bounds()
+    ox, oy, _ = job.placement.offset
+    s = job.settings
+    grow = s.skirt_distance + s.skirt_loops * s.bead_width if s.skirt_loops else 0.0
+    return shapely.box(x0 + ox, y0 + oy, x1 + ox, y1 + oy).buffer(grow, join_style="mitre")
+
+
+def _max_colors_per_layer(job: SliceJob, jobs: int, scheduler: str | None) -> int:
+    """An upper bound of the colors a layer holds (sizes the purge tower)."""
+    if job.palette.n_materials != 2:
+        return job.palette.size
+    return max(map_ordered(_colors_in_outline, job, range(len(job.layers)), jobs=jobs, scheduler=scheduler), default=1)
+
+
+def _colors_in_outline(job: SliceJob, index: int) -> int:
+    """Colors spanned by the field over a layer's outline (all bins between min and max)."""
+    outline = job.outlines[index]
+    if outline.is_empty:
+        return 0
+    x0, y0, x1, y1 = outline.bounds
+    step = job.settings.bead_width
+    xs, ys = np.meshgrid(np.arange(x0, x1 + step, step), np.arange(y0, y1 + step, step))
+    pts = np.column_stack([xs.ravel(), ys.ravel()])
+    grown = outline.buffer(step)
+    pts = np.vstack([pts[shapely.contains_xy(grown, pts[:, 0], pts[:, 1])], shapely.get_coordinates(outline)])
+    z = job.layers[index][1] - job.layers[index][2] / 2
+    colors = job.palette.color_of(BedField(job.design, job.placement).fractions(pts, z))
+    return int(colors.max() - colors.min() + 1)
+
+
+def _speed_of(settings: Settings) -> Callable[[Path], float]:
+    """Printing speed (mm/s) of a path by role, for time-based look-ahead."""
+
+    def speed(path: Path) -> float:
+        if path.role is Role.EXTERNAL_PERIMETER:
+            return settings.outer_wall_speed
+        if path.role is Role.INTERNAL_INFILL:
+            return settings.infill_speed
+        return settings.print_speed
+
+    return speed
+
+
+def slice_to_gcode(
+    design: Design,
+    settings: Settings,
+    output: str | FilePath,
+    *,
+    jobs: int | None = None,
+    scheduler: str | None = None,
+    comments: dict[str, str] | None = None,
+    thumbnails: tuple[tuple[bytes, int, int], ...] = (),
+    progress: Callable[[int, int], None] | None = None,
+    verify: bool = True,
+) -> SliceResult:
+    """Slice ``design`` with ``settings`` and write printer-ready G-code to ``output``.
+
+    Args:
+        design: the part (any :class:`~fgslice.design.base.Design`).
+        settings: resolved settings (:func:`fgslice.settings.load_settings`).
+        output: G-code path; written atomically (temporary file, verified, renamed).
+        jobs: worker processes for per-layer stages (default: all cores).
+        scheduler: a Dask scheduler address to run per-layer stages on instead.
+        comments: extra ``; key = value`` header lines.
+        thumbnails: PNG thumbnails ``(png, width, height)`` to embed.
+        progress: called as ``progress(done_layers, total_layers)``.
+        verify: check the written file against the machine's limits before keeping it.
+
+    Raises:
+        FgsliceError: any refusal (settings, design, bed size, verification, output).
+    """
+    started = time.perf_counter()
+    jobs = default_jobs() if jobs is None else max(1, jobs)
+    palette = Palette(len(design.materials), settings.colors)
+    dialect = make_dialect(settings, palette)
+    placement = place_design(design, settings)
+    layers = layer_heights(design, settings)
+    bed_center = np.array([settings.bed_x / 2, settings.bed_y / 2])
+    job = SliceJob(design, settings, palette, placement, layers, bed_center)
+
+    tower = None
+    if settings.strategy == 1:
+        job.outlines = list(map_ordered(_section_task, job, range(len(layers)), jobs=jobs, scheduler=scheduler))
+        if settings.purge and palette.size > 1:
+            changes = _max_colors_per_layer(job, jobs, scheduler)
+            tower = PurgeTower.plan(_part_footprint(job), settings, max(changes, 1), len(layers))
+            job.start_xy = np.array([(tower.x0 + tower.x1) / 2, (tower.y0 + tower.y1) / 2])
+
+    warnings: list[str] = []
+    uncovered = [0.0]
+    total = len(layers)
+
+    def plans():
+        for done, result in enumerate(map_ordered(_layer_task, job, range(total), jobs=jobs, scheduler=scheduler), 1):
+            warnings.extend(result.warnings)
+            uncovered[0] += result.uncovered_mm2
+            if progress:
+                progress(done, total)
+            yield result.plan
+
+    purge_stats = PurgeStats()
+    stream = insert_purges(plans(), tower, settings, palette, purge_stats) if tower else plans()
+    if settings.dialect == "temperature" and settings.temperature_lead_s > 0:
+        stream = apply_time_lead(stream, settings.temperature_lead_s, _speed_of(settings))
+    elif settings.lookahead_distance > 0:
+        stream = apply_lookahead(stream, settings.lookahead_distance)
+
+    header = {
+        "placement_offset": ",".join(f"{v:.4f}" for v in placement.offset),
+        "materials": ",".join(m.name for m in design.materials),
+        **(comments or {}),
+    }
+    with atomic_output(output) as handle:
+        writer = GcodeWriter(handle, settings, palette, dialect, comments=header, thumbnails=thumbnails)
+        writer.write_header()
+        for plan in stream:
+            writer.write_layer(plan)
+        stats = writer.finish()
+        handle.flush()
+        if verify:
+            faults = verify_gcode(FilePath(handle.name), settings)
+            if faults:
+                raise SliceError(
+                    "the G-code fails verification against the machine profile; nothing was written:\n"
+                    + format_faults(faults),
+                    hint="this is a bug in fgslice or a profile whose limits contradict its settings",
+                )
+
+    stats.setdefault("warnings", [])
+    stats["warnings"] = list(stats["warnings"]) + _dedupe(warnings)
+    stats.update(
+        {
+            "layers": total,
+            "colors": palette.size,
+            "strategy": settings.strategy,
+            "uncovered_mm2": round(uncovered[0], 3),
+            "purge_mm3": round(purge_stats.purge_mm3, 3) if tower else 0.0,
+            "purge_g": round(purge_stats.purge_g, 4) if tower else 0.0,
+            "purge_waste_share": round(purge_stats.waste_share, 4) if tower else 0.0,
+            "lookahead_mm": round(settings.lookahead_distance, 3),
+            "placement_offset": list(placement.offset),
+            "elapsed_s": round(time.perf_counter() - started, 3),
+        }
+    )
+    return SliceResult(output=FilePath(output), stats=stats)
+
+
+def _dedupe(items: list[str]) -> list[str]:
+    """Keep the first occurrence of each message, in order."""
+    return list(dict.fromkeys(items))
