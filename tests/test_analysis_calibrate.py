@@ -10,6 +10,7 @@ from fgslice.analysis.calibrate import (
     calibration_midpoint,
     calibration_plan,
     format_lookahead,
+    lookahead_advice,
     lookahead_from_measurement,
     lookahead_from_volume,
     transition_offsets,
@@ -124,3 +125,12 @@ def test_appendix_a_formulas():
         lookahead_from_measurement(3.0, 0.0, 0.4)
     with pytest.raises(SettingsError):
         lookahead_from_volume(68.5, 0.2, 0.4)
+
+
+def test_lookahead_advice_gives_the_option_line():
+    settings = Settings(melt_volume_mm3=68.5)
+    distance, text = lookahead_advice(settings)
+    assert distance == pytest.approx(959.17, abs=0.01)
+    assert text.splitlines()[-1] == "--set lookahead_mm=959.2"
+    distance, text = lookahead_advice(settings, measured_error_mm=19.0)
+    assert distance == 960.0 and "48 lines" in text and text.endswith("--set lookahead_mm=960.0")

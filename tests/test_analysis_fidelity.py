@@ -1,5 +1,7 @@
 """Fidelity metrics: CIEDE2000 against published pairs, palette-size curve, figures."""
 
+import json
+
 import numpy as np
 import pytest
 
@@ -10,6 +12,7 @@ from fgslice.analysis.fidelity import (
     fidelity_by_palette,
     mixture_lab,
     plot_layer_error,
+    simulation_stats,
     weighted_quantile,
 )
 from fgslice.analysis.simulate import MeltModel, SimulationResult
@@ -103,3 +106,16 @@ def test_error_figure_is_written(tmp_path):
     out = tmp_path / "error.png"
     assert plot_layer_error(_layer_result(), out) == 0
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.stat().st_size > 5000
+
+
+def test_simulation_stats_name_the_worst_layer():
+    result = _layer_result()
+    result.layer[200:] = 2                      # layer 1 empty, layer 2 = the second half
+    stats = simulation_stats(result, fidelity(result))
+    assert stats["layer_mean_error"][1] is None
+    # the first half starts at designed 0, where the clamp at 0 keeps the error below 0.1
+    assert stats["worst_layer"] == 2
+    assert stats["layer_mean_error"][2] == pytest.approx(0.1)
+    assert stats["layer_mean_error"][0] < 0.1
+    assert stats["extruded_mm3"] == pytest.approx(400 * 0.007)
+    assert json.loads(json.dumps(stats)) == stats

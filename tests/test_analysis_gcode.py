@@ -102,3 +102,18 @@ def test_calibration_gcode_round_trip(tmp_path, lookahead, expected_beads):
     assert result.palette_size == settings.colors                  # from the '; colors = N' comment
     beads = transition_offsets(result, calibration_midpoint(settings)) / settings.bead_width
     assert len(beads) == 3 and np.all(np.abs(beads - expected_beads) <= 1.0)
+
+
+def test_temperature_dialect_lags_by_the_thermal_half_time(tmp_path):
+    """Foaming profile (M104 + M221): the half-way temperature comes tau ln 2 seconds of printing late."""
+    from fgslice.analysis.calibrate import calibration_midpoint, transition_offsets, write_calibration
+
+    settings = load_settings("foam-lwpla", {})
+    out = tmp_path / "cal.gcode"
+    write_calibration(out, settings)
+    result = simulate(out, StepBox(), Placement((settings.bed_x / 2, settings.bed_y / 2, 0.3)), settings)
+    assert result.model.kind == "thermal"
+    beads = transition_offsets(result, calibration_midpoint(settings)) / settings.bead_width
+    speeds = np.array([settings.first_layer_speed, settings.print_speed, settings.print_speed])
+    expected = settings.tau_s * math.log(2) * speeds / (20.0 + settings.bead_width)
+    assert np.all(np.abs(beads - expected) <= 1.0)

@@ -70,6 +70,36 @@ def format_lookahead(distance_mm: float) -> str:
     return f"--set lookahead_mm={distance_mm:.1f}"
 
 
+def lookahead_advice(
+    settings: Settings,
+    *,
+    measured_error_mm: float | None = None,
+    melt_volume_mm3: float | None = None,
+    line_length_mm: float = LENGTH_Y,
+) -> tuple[float, str]:
+    """The look-ahead to use and the lines to print about it.
+
+    With ``measured_error_mm`` (``e_x`` from a calibration print): Appendix A's unknown-
+    volume method with ``L_y = line_length_mm``; otherwise the known-volume method with
+    ``melt_volume_mm3`` (default ``settings.melt_volume_mm3``) and the settings' bead.
+
+    Returns:
+        ``(distance_mm, text)``; the text's last line is the ``--set lookahead_mm=...`` option.
+    """
+    w, h = settings.bead_width, settings.layer_height
+    if measured_error_mm is not None:
+        distance = lookahead_from_measurement(measured_error_mm, line_length_mm, w)
+        lines = round(distance / line_length_mm)
+        how = (f"e_x = {abs(measured_error_mm):g} mm: ceil(e_x / w = {w:g} mm) = {lines} lines "
+               f"x L_y = {line_length_mm:g} mm = {distance:.1f} mm")
+    else:
+        volume = settings.melt_volume_mm3 if melt_volume_mm3 is None else melt_volume_mm3
+        distance = lookahead_from_volume(volume, w, h)
+        how = (f"V_melt = {volume:g} mm^3 / A = {bead_area(w, h):.4f} mm^2 (w = {w:g} mm, h = {h:g} mm) "
+               f"= {distance:.1f} mm")
+    return distance, f"{how}\n{format_lookahead(distance)}"
+
+
 def _extreme_colors(centers: np.ndarray) -> tuple[int, int]:
     """Palette colors richest and poorest in the first material (A and B)."""
     return int(np.argmax(centers[:, 0])), int(np.argmin(centers[:, 0]))

@@ -172,6 +172,35 @@ def fidelity_by_palette(
     return out
 
 
+def simulation_stats(result: SimulationResult, report: FidelityReport) -> dict:
+    """Everything ``fgslice simulate --stats`` writes: the model, the print and the metrics.
+
+    Adds ``worst_layer`` (highest volume-weighted mean error) and ``layer_mean_error``
+    (per layer index, part segments only; null for layers without any).
+    """
+    model = result.model
+    error = composition_error(result.deposited, result.designed)[result.part]
+    layers = result.layer[result.part]
+    weights = result.volume[result.part]
+    count = int(result.layer.max()) + 1 if len(result.layer) else 0
+    sums = np.bincount(layers, weights=error * weights, minlength=count)
+    vols = np.bincount(layers, weights=weights, minlength=count)
+    per_layer = [float(a / v) if v > 0 else None for a, v in zip(sums, vols)]
+    known = [(e, i) for i, e in enumerate(per_layer) if e is not None]
+    return {
+        "model": model.kind,
+        "melt_volume_mm3": model.melt_volume_mm3,
+        "mixing_share": model.mixing_share,
+        "tau_s": model.tau_s,
+        "palette_size": result.palette_size,
+        "extrusion_segments": int(len(result.volume)),
+        "extruded_mm3": float(result.volume.sum()),
+        **report.as_dict(),
+        "worst_layer": max(known)[1] if known else None,
+        "layer_mean_error": per_layer,
+    }
+
+
 def plot_layer_error(result: SimulationResult, path: str | Path, layer: int | None = None) -> int:
     """Write a PNG of one layer's segments colored by composition error, with a colorbar.
 
