@@ -35,6 +35,7 @@ class Settings(BaseModel):
     max_z: float = Field(250.0, gt=0, le=5000, description="build height, mm")
     nozzle_diameter: float = Field(0.4, gt=0.05, le=5.0, description="nozzle bore, mm")
     filament_diameter: float = Field(1.75, gt=0.1, le=5.0, description="filament diameter, mm")
+    filament_density: float = Field(1.24, gt=0.1, le=25.0, description="filament density for mass estimates, g/cm^3")
 
     # -- state of a color ---------------------------------------------------------
     temperature_a: float = Field(190.0, ge=0, le=500, description="nozzle temperature at 100% material A (temperature dialect), C")

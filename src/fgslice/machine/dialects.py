@@ -9,7 +9,8 @@ recover the palette color whatever the commands are. One class per dialect:
   (E and F are taken by extrusion and feed rate).
 * ``marlin-mixing-m163``: ``M163 S<i> P<f_i>`` for every channel, then ``M164 S0``
   (commit the mix to virtual tool 0).
-* ``toolchanger``: ``T<n>`` with ``n`` the color index.
+* ``toolchanger``: ``T<n>`` with ``n`` the color index; every tool the palette uses is
+  heated (``M104 T<i>``, then ``M109 T<i>``) after the start G-code.
 * ``temperature``: ``M104 S<t>`` then ``M221 S<flow>``; ``t`` is linear in the first
   material's fraction ``f_A``: ``t = temperature_a + (temperature_b - temperature_a)
   (1 - f_A)`` (100 % A prints at ``temperature_a``), ``flow`` from :mod:`.flow`. Both are
@@ -90,6 +91,10 @@ class Dialect(ABC):
     def _commands(self, color: int) -> list[str]:
         """The machine commands (no comment) of ``color``'s state."""
 
+    def start_commands(self) -> list[str]:
+        """Lines the writer adds after the start G-code (e.g. heating every tool)."""
+        return []
+
     def describe(self, color: int) -> str:
         """The commands of ``color``'s state on one line, e.g. ``M165 A0.1250 B0.8750``."""
         return " | ".join(self._commands(self._color(color)))
@@ -135,6 +140,12 @@ class Toolchanger(Dialect):
                 f"{n} colors need {n} tools; this profile has {tools}",
                 hint=f"--set tool_count={n} or --colors {tools}",
             )
+
+    def start_commands(self) -> list[str]:
+        """Heat every tool the palette uses to ``nozzle_temperature`` and wait for each."""
+        t = f"{self.settings.nozzle_temperature:g}"
+        tools = range(self.palette.size)
+        return [f"M104 T{i} S{t}" for i in tools] + [f"M109 T{i} S{t}" for i in tools]
 
     def _commands(self, color: int) -> list[str]:
         return [f"T{color}"]

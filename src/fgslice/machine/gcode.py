@@ -1,0 +1,485 @@
+"""The streaming G-code writer: plans in, G-code text and statistics out.
+
+:class:`GcodeWriter` writes a header, then one :class:`~fgslice.planning.plan.LayerPlan`
+at a time (nothing of earlier layers is kept), then a footer. Conventions:
+
+* relative extrusion (``M83``); for a segment of XY length ``L`` (mm) of a path of
+  width ``w`` and height ``h``, ``E = L * bead_area(w, h) / (pi d^2 / 4)`` mm of filament
+  (``d`` = ``filament_diameter``). E is rounded to 5 decimals by diffusing the rounding
+  error along the print (each E is the difference of the rounded running total), so the
+  written total equals the exact total to 1e-5 mm.
+* coordinates have 3 decimals, trailing zeros dropped; moves that round to zero length
+  are not written.
+* PrusaSlicer's annotations: ``;LAYER_CHANGE``, ``;Z:``, ``;HEIGHT:``, ``;TYPE:<role>``
+  and ``;WIDTH:`` when they change; every state change starts with ``;STATE:<c> <label>``.
+* feed rates: external perimeters ``outer_wall_speed``, sparse infill ``infill_speed``,
+  every other extrusion ``print_speed``; everything on layer 0 ``first_layer_speed``;
+  travels ``travel_speed`` (``G0``), Z moves ``z_speed``; all mm/s, written as mm/min.
+* retraction ``G1 E-<retract_length>`` before travels longer than
+  ``retract_min_travel`` and at layer changes, un-retraction after the travel; with
+  ``z_hop`` > 0 retracted travels are lifted by ``z_hop``.
+
+Moves are formatted in bulk: the digits of every number of a layer are computed with
+integer numpy arithmetic into one byte matrix (see :func:`format_moves`), so no Python
+object is made per vertex.
+
+The statistics returned by :meth:`GcodeWriter.finish` are documented in ``docs/gcode.md``.
+The time estimate is the sum of move lengths divided by their feed rates (no
+acceleration), plus the dialect's fixed ``change_time_s`` per state change.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable
+from datetime import datetime, timezone
+from importlib import metadata
+from typing import TextIO
+
+import numpy as np
+
+from fgslice.errors import SettingsError
+from fgslice.machine.dialects import Dialect, PaletteLike
+from fgslice.machine.thumbnails import thumbnail_block
+from fgslice.planning.plan import LayerPlan, SetState
+from fgslice.settings import Settings
+from fgslice.toolpaths.paths import Path, Role, bead_area
+
+INT_DIGITS = 9
+GCODE_PLACEHOLDER = re.compile(r"\{([^{}\s]*)\}")
+
+
+def fgslice_version() -> str:
+    """The installed fgslice version."""
+    try:
+        return metadata.version("fgslice")
+    except metadata.PackageNotFoundError:
+        return "0+unknown"
+
+
+def fmt(value: float, decimals: int) -> str:
+    """``value`` with at most ``decimals`` decimals, trailing zeros dropped (``-0`` as ``0``)."""
+    text = f"{value:.{decimals}f}"
+    if "." in text:
+        text = text.rstrip("0").rstrip(".")
+    return "0" if text in ("-0", "") else text
+
+
+def _number_rows(values: np.ndarray, decimals: int) -> list[np.ndarray]:
+    """ASCII bytes of ``values`` with ``decimals`` decimals, one uint8 array per column.
+
+    The columns are sign, integer digits (most significant first), point and decimals,
+    each of length ``len(values)``; bytes that are not printed (leading zeros, trailing
+    zeros of the fraction, the point of whole numbers, the sign of non-negative values)
+    are 0 and removed by the caller.
+    """
+    q = np.rint(np.abs(values) * 10.0**decimals).astype(np.int64)
+    total = max(len(str(int(q.max()))) if q.size else 1, decimals + 1)
+    if total - decimals > INT_DIGITS:
+        raise ValueError(f"cannot write a G-code number of more than {INT_DIGITS} integer digits")
+    digits = np.empty((total, len(q)), dtype=np.uint8)
+    rest = q
+    for k in range(total):
+        rest, digit = np.divmod(rest, 10)
+        digits[k] = digit
+    nonzero = digits != 0
+    keep_dec = np.logical_or.accumulate(nonzero[:decimals], axis=0)
+    keep_int = np.logical_or.accumulate(nonzero[decimals:][::-1], axis=0)[::-1]
+    keep_int[0] = True
+    chars = digits + np.uint8(48)
+    rows = [np.where((values < 0) & (q != 0), np.uint8(45), np.uint8(0))]
+    rows += [np.where(keep_int[k], chars[decimals + k], np.uint8(0)) for k in range(total - decimals - 1, -1, -1)]
+    if decimals:
+        rows.append(np.where(keep_dec[-1], np.uint8(46), np.uint8(0)))
+        rows += [np.where(keep_dec[k], chars[k], np.uint8(0)) for k in range(decimals - 1, -1, -1)]
+    return rows
+
+
+def format_lines(fields: list[tuple[str, np.ndarray, int]], suffix: str = "\n") -> tuple[str, np.ndarray]:
+    """One line per row: for each field its literal text then its number, then ``suffix``.
+
+    ``fields`` are ``(text, values, decimals)`` with arrays of equal length; numbers are
+    written with at most ``decimals`` decimals, trailing zeros dropped. Returns the text
+    of all lines and the ``(n + 1,)`` character offsets of line starts (the last entry
+    is the text length), so callers can slice runs of lines.
+    """
+    n = len(fields[0][1])
+    if n == 0:
+        return "", np.zeros(1, dtype=np.int64)
+    for _, values, _ in fields:
+        if not np.isfinite(values).all():
+            raise ValueError("a toolpath has a non-finite coordinate")
+
+    rows: list[np.ndarray | int] = []
+    for text, values, decimals in fields:
+        rows += list(text.encode()) + _number_rows(values, decimals)
+    rows += list(suffix.encode())
+    matrix = np.empty((len(rows), n), dtype=np.uint8)
+    for k, row in enumerate(rows):
+        matrix[k] = row
+    matrix = matrix.T
+    keep = matrix != 0
+    offsets = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(keep.sum(axis=1), out=offsets[1:])
+    return matrix[keep].tobytes().decode("ascii"), offsets
+
+
+def format_moves(x: np.ndarray, y: np.ndarray, e: np.ndarray) -> tuple[str, np.ndarray]:
+    """``G1 X<x> Y<y> E<e>`` lines (3, 3 and 5 decimals); see :func:`format_lines`."""
+    return format_lines([("G1 X", x, 3), (" Y", y, 3), (" E", e, 5)])
+
+
+def _split(text: str, offsets: np.ndarray, bounds: np.ndarray) -> list[str]:
+    """Pieces ``text[offsets[bounds[i]]:offsets[bounds[i + 1]]]``."""
+    cuts = offsets[bounds].tolist()
+    return [text[a:b] for a, b in zip(cuts[:-1], cuts[1:])]
+
+
+def fill_placeholders(text: str, values: dict[str, str], what: str) -> str:
+    """Replace ``{name}`` in ``text`` by ``values[name]``; unknown names are a SettingsError."""
+
+    def replace(match: re.Match[str]) -> str:
+        name = match.group(1)
+        if name not in values:
+            raise SettingsError(
+                f"unknown placeholder '{{{name}}}' in {what}",
+                hint="placeholders: " + ", ".join(f"{{{k}}}" for k in values),
+            )
+        return values[name]
+
+    return GCODE_PLACEHOLDER.sub(replace, text)
+
+
+def format_duration(seconds: float) -> str:
+    """PrusaSlicer's time format: ``1d 2h 3m 4s``, leading zero units omitted."""
+    total = int(round(seconds))
+    days, rest = divmod(total, 86400)
+    hours, rest = divmod(rest, 3600)
+    minutes, secs = divmod(rest, 60)
+    parts = [(days, "d"), (hours, "h"), (minutes, "m")]
+    while parts and parts[0][0] == 0:
+        parts.pop(0)
+    return " ".join(f"{v}{u}" for v, u in parts + [(secs, "s")])
+
+
+class GcodeWriter:
+    """Writes G-code to ``out`` layer by layer and gathers statistics.
+
+    Args:
+        out: text stream written to (nothing is kept in memory between layers).
+        settings: the slice's settings (speeds, retraction, filament, G-code texts).
+        palette: the palette (``size``, ``n_materials``, ``centers``, ``label``).
+        dialect: turns state changes into commands (:func:`~.dialects.make_dialect`).
+        comments: extra ``; key = value`` header lines (design file, command line...).
+        thumbnails: ``(png_bytes, width, height)`` pictures embedded in the header.
+        now: the time stamp of the first line (default: the current UTC time).
+    """
+
+    def __init__(
+        self,
+        out: TextIO,
+        settings: Settings,
+        palette: PaletteLike,
+        dialect: Dialect,
+        *,
+        comments: dict[str, str],
+        thumbnails: Iterable[tuple[bytes, int, int]] = (),
+        now: datetime | None = None,
+    ) -> None:
+        self.out = out
+        self.settings = settings
+        self.palette = palette
+        self.dialect = dialect
+        self.comments = dict(comments)
+        self.thumbnails = tuple(thumbnails)
+        self.now = now
+        self.filament_area = np.pi * settings.filament_diameter**2 / 4.0
+        self._state: int | None = None
+        self._pos: tuple[float, float] | None = None
+        self._z = 0.0
+        self._role: Role | None = None
+        self._width: float | None = None
+        self._feed: float | None = None
+        self._retracted = False
+        self._extruded = False
+        self._fan_on = False
+        self._e_total = 0.0
+        self._e_written = 0.0
+        self._stats_layers = 0
+        self._travel_mm = 0.0
+        self._time_s = 0.0
+        self._state_changes = 0
+        self._retractions = 0
+        self._volume_by_color: dict[int, float] = {}
+        self._purge_mm3 = 0.0
+        self._bbox_min = np.full(3, np.inf)
+        self._bbox_max = np.full(3, -np.inf)
+        self._skipped_paths = 0
+        self._colors_used: set[int] = set()
+
+    # -- header ---------------------------------------------------------------------
+    def write_header(self) -> None:
+        """The first line, thumbnails, comments, settings, palette and start G-code."""
+        s = self.settings
+        now = self.now or datetime.now(timezone.utc)
+        lines = [f"; generated by fgslice {fgslice_version()} on {now:%Y-%m-%d} at {now:%H:%M:%S} UTC", ""]
+        text = "\n".join(lines) + "\n"
+        text += "".join(thumbnail_block(png, w, h) for png, w, h in self.thumbnails)
+        lines = [""] + [f"; {k} = {_one_line(v)}" for k, v in self.comments.items()]
+        lines += [f"; {k} = {_one_line(v)}" for k, v in s.model_dump().items()]
+        lines.append(f"; palette = {self.palette.size} colors of {self.palette.n_materials} materials, dialect {self.dialect.name}")
+        lines += [
+            f"; color {c} = {self.palette.label(c)} : {self.dialect.describe(c)}" for c in range(self.palette.size)
+        ]
+        lines += ["", fill_placeholders(s.start_gcode, self._temperature_values(), "start_gcode")]
+        lines += self.dialect.start_commands() + ["M83", "M107", ""]
+        self.out.write(text + "\n".join(lines))
+
+    def _temperature_values(self) -> dict[str, str]:
+        return {
+            "nozzle_temperature": fmt(self.settings.nozzle_temperature, 1),
+            "bed_temperature": fmt(self.settings.bed_temperature, 1),
+        }
+
+    # -- layers ---------------------------------------------------------------------
+    def write_layer(self, plan: LayerPlan) -> None:
+        """Write one layer: layer annotations, Z move, fan, state changes and paths."""
+        s = self.settings
+        parts = [f";LAYER_CHANGE\n;Z:{fmt(plan.z, 3)}\n;HEIGHT:{fmt(plan.height, 3)}\n"]
+        if self._extruded and not self._retracted and s.retract_length > 0:
+            parts.append(self._retract_line())
+            self._retracted = True
+            self._retractions += 1
+            self._time_s += s.retract_length / s.retract_speed
+        parts.append(f"G1 Z{fmt(plan.z, 3)} F{fmt(s.z_speed * 60, 1)}\n")
+        self._time_s += abs(plan.z - self._z) / s.z_speed
+        self._z = plan.z
+        if not self._fan_on and plan.index >= s.fan_off_layers and s.fan_speed > 0:
+            parts.append(f"M106 S{int(round(s.fan_speed * 2.55))}\n")
+            self._fan_on = True
+
+        paths: list[Path] = []
+        before: list[str] = []
+        resets: list[bool] = []
+        colors: list[int] = []
+        pending: list[str] = []
+        reset = False
+        for step in plan.steps:
+            color = step.color
+            if isinstance(step, Path):
+                if self._state is not None or color < 0:
+                    color = None
+            if color is not None:
+                change = self._set_state(color)
+                if change:
+                    pending.append(change)
+                    reset = reset or self.dialect.moves_head
+            if isinstance(step, Path):
+                paths.append(step)
+                before.append("".join(pending))
+                resets.append(reset)
+                colors.append(-1 if self._state is None else self._state)
+                pending, reset = [], False
+        if paths:
+            parts.extend(self._write_paths(paths, before, resets, colors, plan.index, pending))
+        if pending:
+            parts.extend(pending)
+            if self.dialect.moves_head:
+                self._pos = None
+        self._stats_layers += 1
+        self.out.write("".join(parts))
+
+    def _set_state(self, color: int) -> str:
+        """The lines of a state change to ``color``, or "" if it is the current state."""
+        if color == self._state:
+            return ""
+        self._state = color
+        self._state_changes += 1
+        self._colors_used.add(color)
+        self._time_s += self.dialect.change_time_s
+        return "\n".join(self.dialect.state_commands(color)) + "\n"
+
+    def _feed_of(self, role: Role, layer_index: int) -> float:
+        s = self.settings
+        if layer_index == 0:
+            return s.first_layer_speed
+        if role is Role.EXTERNAL_PERIMETER:
+            return s.outer_wall_speed
+        if role is Role.INTERNAL_INFILL:
+            return s.infill_speed
+        return s.print_speed
+
+    def _retract_line(self, sign: int = -1) -> str:
+        """``G1 E-<retract_length>`` (``sign`` -1) or the un-retraction (``sign`` 1)."""
+        s = self.settings
+        return f"G1 E{fmt(sign * s.retract_length, 5)} F{fmt(s.retract_speed * 60, 1)}\n"
+
+    def _write_paths(
+        self,
+        paths: list[Path],
+        before: list[str],
+        resets: list[bool],
+        colors: list[int],
+        layer_index: int,
+        trailing: list[str],
+    ) -> list[str]:
+        """The text of a layer's paths: E math, travels, annotations and moves, in bulk.
+
+        ``before[i]`` is the state-change text due before path ``i``; ``resets[i]`` tells
+        that it moved the head. Text due before paths that print nothing moves to the
+        next printed path (or to ``trailing``).
+        """
+        s = self.settings
+        verts = [p.vertices for p in paths]
+        counts = np.fromiter((len(v) for v in verts), dtype=np.int64, count=len(verts))
+        first = np.zeros(len(paths) + 1, dtype=np.int64)
+        np.cumsum(counts, out=first[1:])
+        pts = np.round(np.concatenate(verts), 3) + 0.0
+        seg = np.hypot(*np.diff(pts, axis=0).T)
+        inside = np.ones(len(seg), dtype=bool)
+        inside[first[1:-1] - 1] = False
+        moves = np.flatnonzero(inside & (seg > 0))
+        path_of_seg = np.repeat(np.arange(len(paths)), counts)[1:]
+        move_path = path_of_seg[moves]
+        n_moves = np.bincount(move_path, minlength=len(paths))
+        printed = np.flatnonzero(n_moves > 0)
+        if len(printed) < len(paths):
+            self._skipped_paths += len(paths) - len(printed)
+            before, resets = self._carry_over(before, resets, n_moves > 0, trailing)
+        if not len(printed):
+            return []
+
+        areas = np.fromiter((bead_area(p.width, p.height) for p in paths), dtype=float, count=len(paths))
+        lengths = seg[moves]
+        exact = np.cumsum(lengths * areas[move_path] / self.filament_area) + self._e_total
+        rounded = np.round(exact, 5)
+        e = np.diff(rounded, prepend=self._e_written)
+        self._e_total, self._e_written = float(exact[-1]), float(rounded[-1])
+        ends = pts[moves + 1]
+        text, offsets = format_moves(ends[:, 0], ends[:, 1], e)
+        row_start = np.zeros(len(paths) + 1, dtype=np.int64)
+        np.cumsum(n_moves, out=row_start[1:])
+        chunks = _split(text, offsets, np.append(row_start[printed], row_start[-1]))
+
+        pp = [paths[i] for i in printed.tolist()]
+        n = len(pp)
+        feeds = np.fromiter((self._feed_of(p.role, layer_index) for p in pp), dtype=float, count=n)
+        starts = pts[first[printed]]
+        last = ends[row_start[printed + 1] - 1]
+        prev = np.vstack([[np.nan, np.nan] if self._pos is None else [self._pos], last[:-1]])
+        unknown = np.array([resets[i] for i in printed.tolist()]) | np.isnan(prev[:, 0])
+        travel = unknown | (starts != prev).any(axis=1)
+        dist = np.where(unknown, 0.0, np.hypot(*(starts - np.nan_to_num(prev)).T))
+        may_retract = np.ones(n, dtype=bool)
+        may_retract[0] = self._extruded and not self._retracted
+        retract = travel & ~unknown & (dist > s.retract_min_travel) & may_retract & (s.retract_length > 0)
+        retracted = retract.copy()
+        retracted[0] |= self._retracted
+        hop = retracted & travel & (s.z_hop > 0)
+
+        travel_text, travel_off = format_lines(
+            [("G0 X", starts[travel, 0], 3), (" Y", starts[travel, 1], 3)], f" F{fmt(s.travel_speed * 60, 1)}\n"
+        )
+        header = np.empty(n, dtype=object)
+        header[:] = [before[i] for i in printed.tolist()]
+        header[retract] += self._retract_line()
+        header[hop] += f"G1 Z{fmt(self._z + s.z_hop, 3)} F{fmt(s.z_speed * 60, 1)}\n"
+        header[travel] += np.array(_split(travel_text, travel_off, np.arange(travel.sum() + 1)), dtype=object)
+        header[hop] += f"G1 Z{fmt(self._z, 3)} F{fmt(s.z_speed * 60, 1)}\n"
+        header[retracted] += self._retract_line(1)
+        roles = [p.role for p in pp]
+        widths = [p.width for p in pp]
+        header += [
+            f";TYPE:{r.value}\n" if r is not q else "" for r, q in zip(roles, [self._role] + roles[:-1])
+        ]
+        header += [
+            f";WIDTH:{fmt(w, 4)}\n" if w != q else "" for w, q in zip(widths, [self._width] + widths[:-1])
+        ]
+        new_feed = travel | (feeds != np.append(np.nan if self._feed is None else self._feed, feeds[:-1]))
+        header[new_feed] += np.array([f"G1 F{fmt(f * 60, 1)}\n" for f in feeds[new_feed].tolist()], dtype=object)
+
+        n_retract, n_hop = int(retract.sum()), int(hop.sum())
+        self._retractions += n_retract
+        self._time_s += (n_retract + int(retracted.sum())) * s.retract_length / s.retract_speed
+        self._time_s += n_hop * 2 * s.z_hop / s.z_speed
+        self._time_s += float(dist.sum()) / s.travel_speed + float(np.sum(lengths / feeds[np.searchsorted(printed, move_path)]))
+        self._travel_mm += float(dist.sum())
+        volume = np.bincount(move_path, weights=e, minlength=len(paths))[printed] * self.filament_area
+        for color, v in zip(np.array(colors)[printed].tolist(), volume.tolist()):
+            self._volume_by_color[color] = self._volume_by_color.get(color, 0.0) + v
+        self._purge_mm3 += float(volume[[r is Role.WIPE_TOWER for r in roles]].sum())
+        shown = np.concatenate([starts, ends])
+        self._bbox_min = np.minimum(self._bbox_min, [*shown.min(axis=0), self._z])
+        self._bbox_max = np.maximum(self._bbox_max, [*shown.max(axis=0), self._z])
+        self._pos = (float(last[-1, 0]), float(last[-1, 1]))
+        self._role, self._width, self._feed = roles[-1], widths[-1], float(feeds[-1])
+        self._retracted = False
+        self._extruded = True
+        return [piece for pair in zip(header.tolist(), chunks) for piece in pair]
+
+    @staticmethod
+    def _carry_over(
+        before: list[str], resets: list[bool], printed: np.ndarray, trailing: list[str]
+    ) -> tuple[list[str], list[bool]]:
+        """Move state-change text of paths that print nothing to the next printed path."""
+        before, resets = list(before), list(resets)
+        carry, carry_reset = "", False
+        for i, ok in enumerate(printed.tolist()):
+            if ok:
+                before[i], resets[i] = carry + before[i], carry_reset or resets[i]
+                carry, carry_reset = "", False
+            else:
+                carry, carry_reset = carry + before[i], carry_reset or resets[i]
+        if carry:
+            trailing.insert(0, carry)
+        return before, resets
+
+    # -- footer ---------------------------------------------------------------------
+    def finish(self) -> dict:
+        """Write the end G-code and the footer; return the statistics (see docs/gcode.md)."""
+        s = self.settings
+        filament_mm = self._e_written
+        extruded = filament_mm * self.filament_area
+        grams_per_mm3 = s.filament_density / 1000.0
+        end = fill_placeholders(s.end_gcode, self._temperature_values(), "end_gcode")
+        footer = [
+            "",
+            end,
+            "",
+            f"; filament used [mm] = {filament_mm:.2f}",
+            f"; filament used [cm3] = {extruded / 1000.0:.2f}",
+            f"; filament used [g] = {extruded * grams_per_mm3:.2f}",
+            f"; state changes = {self._state_changes}",
+            f"; estimated printing time (normal mode) = {format_duration(self._time_s)}",
+            "",
+        ]
+        self.out.write("\n".join(footer))
+        warnings = []
+        if self._skipped_paths:
+            warnings.append(f"{self._skipped_paths} paths shorter than 0.001 mm were not written")
+        bbox = (
+            [self._bbox_min.tolist(), self._bbox_max.tolist()] if np.isfinite(self._bbox_min).all() else None
+        )
+        return {
+            "layers": self._stats_layers,
+            "colors": self.palette.size,
+            "colors_used": len(self._colors_used),
+            "extruded_mm3": extruded,
+            "extruded_mm3_by_color": dict(sorted(self._volume_by_color.items())),
+            "travel_mm": self._travel_mm,
+            "state_changes": self._state_changes,
+            "retractions": self._retractions,
+            "estimated_time_s": self._time_s,
+            "extrusion_bbox": bbox,
+            "purge_mm3": self._purge_mm3,
+            "purge_g": self._purge_mm3 * grams_per_mm3,
+            "filament_mm": filament_mm,
+            "filament_g": extruded * grams_per_mm3,
+            "warnings": warnings,
+        }
+
+
+def _one_line(value: object) -> str:
+    """A settings value as one comment line (newlines written as ``\\n``)."""
+    text = "" if value is None else str(value)
+    return text.replace("\r", "").replace("\n", "\\n")

@@ -1,0 +1,532 @@
+"""A fast reader of any slicer's G-code, for the commands that matter to fgslice.
+
+:func:`read_gcode` returns a :class:`GcodeProgram`: one row per move in numpy arrays
+(start and end position in mm, filament length E in mm, feed rate in mm/min, line number,
+layer, role, process state, bead width) plus the events ``verify`` needs (temperature
+set points, tool selects, flow and mix commands, fan and PWM outputs).
+
+Understood: ``G0``/``G1`` (X Y Z E F), ``G2``/``G3`` arcs (I J or R; their XY length is
+the arc's), ``G28`` (homed axes go to 0), ``G90``/``G91`` (absolute/relative XYZ and
+E), ``M82``/``M83`` (absolute/relative E), ``G92`` (set position, including ``G92 E0``),
+``T<n>``, ``M165``, ``M163``/``M164``, ``M104``/``M109`` (S, R, T), ``M140``/``M190``,
+``M221``, ``M106``/``M107``, ``M42``, and the comments ``;LAYER_CHANGE`` (or Cura's
+``;LAYER:<n>``), ``;Z:``, ``;TYPE:``, ``;WIDTH:``, ``;STATE:<n>``. Other commands are
+kept as line numbers only. A number that is not a finite number (``X1e999``, ``Ynan``,
+``Eabc``) becomes a :class:`Fault` and the word is ignored; the reader never raises on
+such content. A file that is not G-code text (binary, empty, no moves) is a
+:class:`~fgslice.errors.GcodeError`.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from fgslice.errors import GcodeError
+
+MIX_LETTERS = "ABCDHI"
+
+
+@dataclass(frozen=True)
+class Fault:
+    """A problem found in a G-code file at 1-based ``line``."""
+
+    line: int
+    message: str
+
+
+@dataclass(frozen=True)
+class MachineState:
+    """The process state moves are printed in.
+
+    Attributes:
+        mix: mixing factors per channel (A B C D H I order, trailing unset channels
+            dropped), or None if no mix was set.
+        tool: active tool index.
+        temperature: nozzle target of the active tool, degC, or None if never set.
+        flow: M221 flow of the active tool, percent.
+        color: palette color of the last ``;STATE:<n>`` comment, or None.
+    """
+
+    mix: tuple[float, ...] | None = None
+    tool: int = 0
+    temperature: float | None = None
+    flow: float = 100.0
+    color: int | None = None
+
+
+@dataclass(frozen=True)
+class TemperatureEvent:
+    """``M104``/``M109`` (nozzle) or ``M140``/``M190`` (bed) at ``line``; ``wait`` for M109/M190."""
+
+    line: int
+    command: str
+    target: float
+    tool: int
+    wait: bool
+
+
+@dataclass(frozen=True)
+class ValueEvent:
+    """A command at ``line`` with its numeric parameters (tool select, flow, mix, fan, PWM)."""
+
+    line: int
+    command: str
+    values: dict[str, float]
+
+
+@dataclass
+class GcodeProgram:
+    """The moves and events of a G-code file. Units mm, mm/min, degC, percent.
+
+    Per move (length M): ``start``/``end`` (M, 3) positions; ``e`` (M,) filament mm
+    (relative, as commanded, before M221); ``feed`` (M,) mm/min; ``length`` (M,) XY path
+    length (arc length for G2/G3); ``line`` (M,) 1-based line numbers; ``layer`` (M,)
+    0-based layer (-1 before the first layer change); ``role`` (M,) index into
+    ``roles`` (-1 if none); ``state`` (M,) index into ``states``; ``width`` (M,) the last
+    ``;WIDTH:`` (NaN if none).
+    """
+
+    start: np.ndarray
+    end: np.ndarray
+    e: np.ndarray
+    feed: np.ndarray
+    length: np.ndarray
+    line: np.ndarray
+    layer: np.ndarray
+    role: np.ndarray
+    state: np.ndarray
+    width: np.ndarray
+    roles: list[str]
+    states: list[MachineState]
+    layer_z: list[float]
+    temperatures: list[TemperatureEvent] = field(default_factory=list)
+    tools: list[ValueEvent] = field(default_factory=list)
+    flows: list[ValueEvent] = field(default_factory=list)
+    mixes: list[ValueEvent] = field(default_factory=list)
+    fans: list[ValueEvent] = field(default_factory=list)
+    outputs: list[ValueEvent] = field(default_factory=list)
+    faults: list[Fault] = field(default_factory=list)
+    unknown_lines: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    line_count: int = 0
+
+    @property
+    def extruding(self) -> np.ndarray:
+        """(M,) bool: moves with positive E."""
+        return self.e > 0
+
+    def flow_of_moves(self) -> np.ndarray:
+        """(M,) M221 flow (percent) each move was printed with."""
+        flows = np.array([s.flow for s in self.states], dtype=float)
+        return flows[self.state]
+
+    def color_of_moves(self) -> np.ndarray:
+        """(M,) palette color of each move from ``;STATE:`` comments (-1 if none)."""
+        colors = np.array([-1 if s.color is None else s.color for s in self.states], dtype=np.int64)
+        return colors[self.state]
+
+
+def _load_bytes(path_or_text: str | os.PathLike | bytes) -> tuple[bytes, str | None]:
+    """The bytes of a file, of bytes or of a string holding G-code; and the file name if any."""
+    name = None
+    if isinstance(path_or_text, os.PathLike) or (
+        isinstance(path_or_text, str) and "\n" not in path_or_text and len(path_or_text) < 4096
+        and os.path.isfile(path_or_text)
+    ):
+        name = str(path_or_text)
+        try:
+            data = Path(path_or_text).read_bytes()
+        except OSError as exc:
+            raise GcodeError(f"cannot read G-code: {exc.strerror}", file=name) from None
+    elif isinstance(path_or_text, bytes):
+        data = path_or_text
+    else:
+        data = str(path_or_text).encode("utf-8", errors="replace")
+    if b"\x00" in data[:65536]:
+        raise GcodeError("not G-code text: it holds binary data", file=name,
+                         hint="binary G-code (.bgcode) is not supported; export plain G-code")
+    if not data.strip():
+        raise GcodeError("the G-code is empty", file=name)
+    return data, name
+
+
+_TOKEN_WIDTH = 16
+_AXES = "XYZEFIJR"
+
+
+def _table(chars: str) -> np.ndarray:
+    table = np.zeros(256, dtype=bool)
+    table[np.frombuffer(chars.encode(), dtype=np.uint8)] = True
+    return table
+
+
+_AXIS_TABLE = _table(_AXES + _AXES.lower())
+_DELIM_TABLE = _table(" \t\r\n;" + "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz")
+_MOVE_END_TABLE = _table(" \t\r\n;")
+_COMMENT_KEYS = _table("TWLZS")
+
+
+def _ffill(values: np.ndarray, initial: float) -> np.ndarray:
+    """Forward-fill NaNs of ``values``; leading NaNs become ``initial``."""
+    idx = np.where(np.isnan(values), -1, np.arange(len(values)))
+    np.maximum.accumulate(idx, out=idx)
+    return np.where(idx >= 0, values[np.maximum(idx, 0)], initial)
+
+
+def _arc_lengths(start: np.ndarray, end: np.ndarray, i: np.ndarray, j: np.ndarray, r: np.ndarray,
+                 clockwise: np.ndarray) -> np.ndarray:
+    """XY lengths of G2 (clockwise) / G3 arcs given by centre offsets I J or radius R, mm."""
+    chord = np.hypot(end[:, 0] - start[:, 0], end[:, 1] - start[:, 1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cx, cy = start[:, 0] + np.nan_to_num(i), start[:, 1] + np.nan_to_num(j)
+        radius = np.hypot(start[:, 0] - cx, start[:, 1] - cy)
+        a0 = np.arctan2(start[:, 1] - cy, start[:, 0] - cx)
+        a1 = np.arctan2(end[:, 1] - cy, end[:, 0] - cx)
+        sweep = np.mod(np.where(clockwise, a0 - a1, a1 - a0), 2 * np.pi)
+        sweep = np.where(sweep == 0, 2 * np.pi, sweep)
+        by_center = radius * sweep
+        rr = np.abs(r)
+        half = 2 * np.arcsin(np.clip(chord / (2 * rr), 0, 1))
+        by_radius = rr * np.where(r < 0, 2 * np.pi - half, half)
+    return np.where(np.isnan(r), by_center, np.where(rr > 0, by_radius, chord))
+
+
+class _Events:
+    """The sequential part of reading: every line that is not a G0-G3 move."""
+
+    def __init__(self) -> None:
+        self.faults: list[Fault] = []
+        self.unknown: list[int] = []
+        self.temperatures: list[TemperatureEvent] = []
+        self.tools: list[ValueEvent] = []
+        self.flows: list[ValueEvent] = []
+        self.mixes: list[ValueEvent] = []
+        self.fans: list[ValueEvent] = []
+        self.outputs: list[ValueEvent] = []
+        self.roles: list[str] = []
+        self.role_index: dict[str, int] = {}
+        self.layer_z: list[float] = []
+        self.states: list[MachineState] = []
+        self.state_index: dict[MachineState, int] = {}
+        self.positional: list[tuple[int, str, dict[str, float], set[str]]] = []
+        self.layer = -1
+        self.role = -1
+        self.width = math.nan
+        self.tool = 0
+        self.temps: dict[int, float] = {}
+        self.flow: dict[int, float] = {}
+        self.mix: tuple[float, ...] | None = None
+        self.pending_mix: dict[int, float] = {}
+        self.color: int | None = None
+        self.state = self._state()
+        self.lines: list[int] = []
+        self.after: list[tuple[int, int, int, float]] = []
+
+    def _state(self) -> int:
+        s = MachineState(self.mix, self.tool, self.temps.get(self.tool), self.flow.get(self.tool, 100.0), self.color)
+        idx = self.state_index.get(s)
+        if idx is None:
+            idx = self.state_index[s] = len(self.states)
+            self.states.append(s)
+        return idx
+
+    def _params(self, words: list[str], num: int) -> dict[str, float]:
+        out = {}
+        for w in words[1:]:
+            key = w[0].upper()
+            try:
+                v = float(w[1:])
+            except ValueError:
+                v = math.nan
+            if not math.isfinite(v):
+                if w[1:] or key not in "XYZ":
+                    self.faults.append(Fault(num, f"{words[0]}: {key} value '{w[1:]}' is not a finite number"))
+                continue
+            out[key] = v
+        return out
+
+    def comment(self, raw: str, num: int) -> None:
+        if raw.startswith(";TYPE:"):
+            name = raw[6:].strip()
+            role = self.role_index.get(name)
+            if role is None:
+                role = self.role_index[name] = len(self.roles)
+                self.roles.append(name)
+            self.role = role
+        elif raw.startswith(";WIDTH:"):
+            try:
+                self.width = float(raw[7:])
+            except ValueError:
+                self.faults.append(Fault(num, f"';WIDTH:' value '{raw[7:].strip()}' is not a number"))
+        elif raw.startswith(";LAYER_CHANGE"):
+            self.layer += 1
+        elif raw.startswith(";Z:"):
+            try:
+                self.layer_z.append(float(raw[3:]))
+            except ValueError:
+                self.faults.append(Fault(num, f"';Z:' value '{raw[3:].strip()}' is not a number"))
+        elif raw.startswith(";STATE:"):
+            head = raw[7:].split(maxsplit=1)
+            if head and head[0].lstrip("-").isdigit():
+                self.color = int(head[0])
+                self.state = self._state()
+        elif raw.startswith(";LAYER:"):
+            value = raw[7:].strip()
+            if value.lstrip("-").isdigit():
+                self.layer = int(value)
+
+    def command(self, raw: str, num: int) -> None:
+        semi = raw.find(";")
+        words = (raw[:semi] if semi >= 0 else raw).split()
+        if not words:
+            return
+        cmd = words[0].upper()
+        p = self._params(words, num)
+        if cmd[0] == "T" and cmd[1:].isdigit():
+            self.tool = int(cmd[1:])
+            self.tools.append(ValueEvent(num, "T", {"T": float(self.tool)}))
+            self.state = self._state()
+        elif cmd in ("M104", "M109"):
+            target = p.get("S", p.get("R"))
+            which = int(p.get("T", self.tool))
+            if target is not None:
+                self.temperatures.append(TemperatureEvent(num, cmd, target, which, cmd == "M109"))
+                self.temps[which] = target
+                self.state = self._state()
+            elif cmd == "M109":
+                self.temperatures.append(TemperatureEvent(num, cmd, self.temps.get(which, 0.0), which, True))
+        elif cmd in ("M140", "M190"):
+            if "S" in p or "R" in p:
+                self.temperatures.append(TemperatureEvent(num, cmd, p.get("S", p.get("R", 0.0)), -1, cmd == "M190"))
+        elif cmd == "M221":
+            self.flows.append(ValueEvent(num, cmd, p))
+            if "S" in p:
+                self.flow[int(p.get("T", self.tool))] = p["S"]
+                self.state = self._state()
+        elif cmd == "M165":
+            self.mixes.append(ValueEvent(num, cmd, p))
+            given = {MIX_LETTERS.index(k): v for k, v in p.items() if k in MIX_LETTERS}
+            if given:
+                self.mix = tuple(given.get(i, 0.0) for i in range(max(given) + 1))
+                self.state = self._state()
+        elif cmd == "M163":
+            self.mixes.append(ValueEvent(num, cmd, p))
+            if "S" in p and "P" in p:
+                self.pending_mix[int(p["S"])] = p["P"]
+        elif cmd == "M164":
+            self.mixes.append(ValueEvent(num, cmd, p))
+            channels = [i for i in self.pending_mix if i >= 0]
+            if channels:
+                self.mix = tuple(self.pending_mix.get(i, 0.0) for i in range(max(channels) + 1))
+                self.state = self._state()
+        elif cmd in ("G90", "G91", "M82", "M83", "G92", "G28"):
+            self.positional.append((num, cmd, p, {w[0].upper() for w in words[1:]}))
+        elif cmd == "M106":
+            self.fans.append(ValueEvent(num, cmd, p))
+        elif cmd == "M107":
+            self.fans.append(ValueEvent(num, cmd, {"S": 0.0}))
+        elif cmd == "M42":
+            self.outputs.append(ValueEvent(num, cmd, p))
+        else:
+            self.unknown.append(num)
+
+    def record(self, num: int) -> None:
+        """Remember the layer, role, state and width in force after line ``num``."""
+        self.lines.append(num)
+        self.after.append((self.layer, self.role, self.state, self.width))
+
+
+def _parse_numbers(padded: np.ndarray, begin: np.ndarray, width: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Values of the plain decimal numbers ``padded[begin : begin + width]``.
+
+    A number is an optional sign, digits with at most one point, at least one digit and
+    at most 15 digits in all, at most ``_TOKEN_WIDTH`` characters. The mantissa is built
+    as an integer and divided by a power of ten: both are exact in float64, so the
+    result is the correctly rounded value, the same as ``float(text)``. Returns the
+    values and a validity mask.
+    """
+    n = len(begin)
+    mantissa = np.zeros(n)
+    decimals = np.zeros(n, dtype=np.int64)
+    n_digits = np.zeros(n, dtype=np.int64)
+    points = np.zeros(n, dtype=np.int64)
+    bad = (width <= 0) | (width > _TOKEN_WIDTH)
+    negative = padded[begin] == 45
+    for k in range(min(_TOKEN_WIDTH, int(width.max()) if n else 0)):
+        c = np.where(k < width, padded[begin + k], np.uint8(0))
+        is_digit = (c >= 48) & (c <= 57)
+        is_point = c == 46
+        sign_ok = (c == 45) | (c == 43) if k == 0 else False
+        bad |= ~(is_digit | is_point | sign_ok | (c == 0))
+        mantissa = np.where(is_digit, mantissa * 10 + (c.astype(np.float64) - 48), mantissa)
+        decimals += is_digit & (points > 0)
+        n_digits += is_digit
+        points += is_point
+    bad |= (n_digits == 0) | (n_digits > 15) | (points > 1)
+    values = mantissa / 10.0**decimals
+    return np.where(negative, -values, values), ~bad
+
+
+def _tokens(buf: np.ndarray, starts: np.ndarray, first: np.ndarray, is_move: np.ndarray,
+            comment_start: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Axis words of move lines: (line index, upper-case letter, value, valid) per word."""
+    pos = np.flatnonzero(_AXIS_TABLE[buf])
+    lid = np.searchsorted(starts, pos, side="right") - 1
+    keep = is_move[lid] & (pos < comment_start[lid]) & (pos > first[lid] + 1)
+    pos, lid = pos[keep], lid[keep]
+    delims = np.append(np.flatnonzero(_DELIM_TABLE[buf]), len(buf))
+    width = delims[np.searchsorted(delims, pos + 1)] - pos - 1
+    padded = np.concatenate([buf, np.zeros(_TOKEN_WIDTH + 1, dtype=np.uint8)])
+    values, valid = _parse_numbers(padded, pos + 1, width)
+    return lid, buf[pos] & 0xDF, values, valid
+
+
+def read_gcode(path_or_text: str | os.PathLike | bytes) -> GcodeProgram:
+    """Read G-code from a file path, bytes or a string holding the text.
+
+    Moves (G0-G3) are parsed in bulk with numpy; every other line goes through a small
+    sequential interpreter. Axis words must be written as a letter followed by a plain
+    decimal number (``X-1.25``); exponents, NaN and inf are faults.
+
+    Raises:
+        GcodeError: the input is not readable G-code text, is empty or has no moves.
+    """
+    data, name = _load_bytes(path_or_text)
+    buf = np.frombuffer(data, dtype=np.uint8)
+    newlines = np.flatnonzero(buf == 10)
+    ends = newlines if buf[-1] == 10 else np.append(newlines, len(buf))
+    starts = np.concatenate([[0], newlines + 1])[: len(ends)]
+    n_lines = len(ends)
+    padded = np.concatenate([buf, np.zeros(4, dtype=np.uint8)])
+
+    first = starts.copy()
+    for i in np.flatnonzero((padded[starts] == 32) | (padded[starts] == 9)).tolist():
+        line = data[starts[i] : ends[i]]
+        first[i] += len(line) - len(line.lstrip())
+    c0, c1, c2 = padded[first], padded[first + 1], padded[first + 2]
+    is_move = ((c0 == ord("G")) | (c0 == ord("g"))) & (c1 >= ord("0")) & (c1 <= ord("3")) & (
+        _MOVE_END_TABLE[c2] | (first + 2 >= ends)
+    )
+    empty = first >= ends
+    plain_comment = (c0 == ord(";")) & ~_COMMENT_KEYS[c1]
+    semis = np.flatnonzero(buf == ord(";"))
+    comment_start = ends.copy()
+    if len(semis):
+        semi_line = np.searchsorted(starts, semis, side="right") - 1
+        uniq, at = np.unique(semi_line, return_index=True)
+        comment_start[uniq] = semis[at]
+
+    events = _Events()
+    for i in np.flatnonzero(~(is_move | empty | plain_comment)).tolist():
+        raw = data[first[i] : ends[i]].decode("utf-8", errors="replace").rstrip()
+        if raw.startswith(";"):
+            events.comment(raw, i + 1)
+        else:
+            events.command(raw, i + 1)
+        events.record(i + 1)
+
+    move_lines = np.flatnonzero(is_move)
+    n_rows = len(move_lines)
+    row_of_line = np.full(n_lines, -1, dtype=np.int64)
+    row_of_line[move_lines] = np.arange(n_rows)
+    lid, letters, values, valid = _tokens(buf, starts, first, is_move, comment_start)
+    faults = list(events.faults)
+    for i in np.flatnonzero(~valid).tolist():
+        word = data[starts[lid[i]] : ends[lid[i]]].decode("utf-8", errors="replace").split(";")[0].strip()
+        faults.append(Fault(int(lid[i]) + 1, f"{word}: {chr(letters[i])} value is not a finite number"))
+    axis = {}
+    for letter in _AXES:
+        column = np.full(n_rows, np.nan)
+        sel = valid & (letters == ord(letter))
+        column[row_of_line[lid[sel]]] = values[sel]
+        axis[letter] = column
+
+    move_numbers = move_lines + 1
+    end = np.empty((n_rows, 3))
+    start = np.empty((n_rows, 3))
+    de = np.zeros(n_rows)
+    bounds = np.searchsorted(move_numbers, [ev[0] for ev in events.positional]).tolist() + [n_rows]
+    pos = np.zeros(3)
+    e_pos = 0.0
+    rel_xyz = rel_e = False
+    begin = 0
+    for k, stop in enumerate(bounds):
+        if stop > begin:
+            for a, letter in enumerate("XYZ"):
+                v = axis[letter][begin:stop]
+                end[begin:stop, a] = pos[a] + np.cumsum(np.nan_to_num(v)) if rel_xyz else _ffill(v, pos[a])
+            start[begin] = pos
+            start[begin + 1 : stop] = end[begin : stop - 1]
+            ve = axis["E"][begin:stop]
+            if rel_e:
+                de[begin:stop] = np.nan_to_num(ve)
+            else:
+                absolute = _ffill(ve, e_pos)
+                de[begin:stop] = np.diff(absolute, prepend=e_pos)
+                e_pos = float(absolute[-1])
+            pos = end[stop - 1].copy()
+            begin = stop
+        if k == len(events.positional):
+            break
+        _, cmd, p, words = events.positional[k]
+        if cmd == "G90":
+            rel_xyz = rel_e = False
+        elif cmd == "G91":
+            rel_xyz = rel_e = True
+        elif cmd == "M82":
+            rel_e = False
+        elif cmd == "M83":
+            rel_e = True
+        elif cmd == "G92":
+            pos = np.array([p.get("X", pos[0]), p.get("Y", pos[1]), p.get("Z", pos[2])])
+            e_pos = p.get("E", e_pos)
+        else:
+            homed = words & set("XYZ") or set("XYZ")
+            pos = np.array([0.0 if a in homed else pos[i] for i, a in enumerate("XYZ")])
+
+    feed = _ffill(axis["F"], 0.0)
+    code = (padded[first[move_lines] + 1] - ord("0")).astype(np.int64)
+    length = np.hypot(end[:, 0] - start[:, 0], end[:, 1] - start[:, 1])
+    arcs = code >= 2
+    if arcs.any():
+        length[arcs] = _arc_lengths(start[arcs], end[arcs], axis["I"][arcs], axis["J"][arcs], axis["R"][arcs],
+                                    code[arcs] == 2)
+    moved = ~(np.isnan(axis["X"]) & np.isnan(axis["Y"]) & np.isnan(axis["Z"]) & np.isnan(axis["E"]))
+    if not moved.any():
+        raise GcodeError(
+            "no moves found: this is not G-code, or it only sets up the machine",
+            file=name,
+            hint="expected G0/G1 lines such as 'G1 X10 Y10 E0.5'",
+        )
+    after = np.array(events.after, dtype=float).reshape(-1, 4)
+    at = np.searchsorted(np.array(events.lines, dtype=np.int64), move_numbers) - 1
+    initial = np.array([-1.0, -1.0, 0.0, np.nan])
+    per_move = np.where((at >= 0)[:, None], after[np.maximum(at, 0)] if len(after) else initial, initial)
+    return GcodeProgram(
+        start=start[moved],
+        end=end[moved],
+        e=de[moved],
+        feed=feed[moved],
+        length=length[moved],
+        line=move_numbers[moved],
+        layer=per_move[moved, 0].astype(np.int64),
+        role=per_move[moved, 1].astype(np.int64),
+        state=per_move[moved, 2].astype(np.int64),
+        width=per_move[moved, 3],
+        roles=events.roles,
+        states=events.states,
+        layer_z=events.layer_z,
+        temperatures=events.temperatures,
+        tools=events.tools,
+        flows=events.flows,
+        mixes=events.mixes,
+        fans=events.fans,
+        outputs=events.outputs,
+        faults=sorted(faults, key=lambda f: f.line),
+        unknown_lines=np.array(events.unknown, dtype=np.int64),
+        line_count=n_lines,
+    )

@@ -1,0 +1,200 @@
+"""Checks that a G-code file is safe to send to the machine a profile describes.
+
+:func:`verify_gcode` reads any slicer's G-code (see :mod:`.gcode_reader`) and reports
+:class:`~fgslice.machine.gcode_reader.Fault` s, each with its 1-based line:
+
+* numbers that are not finite (NaN, inf, garbage);
+* moves ending outside the build volume ``0..bed_x`` x ``0..bed_y`` x ``0..max_z``
+  (tolerance ``BED_TOLERANCE_MM``);
+* extrusion per mm of XY travel ``E * filament_area / xy_length`` above
+  ``max_cross_section_mm2`` (moves with XY length > 0; E as commanded, before M221);
+  moves without XY motion (pure Z or pure E) extruding more than
+  ``PRIME_ALLOWANCE_MM + retract_length`` of filament;
+* extrusion while the active nozzle is colder than ``min_extrude_temperature``: a
+  nozzle counts as heated to the last ``M109`` target (or a lower later ``M104``
+  target: cooling is assumed immediate, heating only after a wait); skipped when
+  ``min_extrude_temperature`` is 0;
+* nozzle / bed targets above ``max_nozzle_temperature`` / ``max_bed_temperature``;
+* ``M221`` outside ``[min_flow_percent, max_flow_percent]``;
+* tool indices: ``T<n>`` with ``n >= tool_count`` on a toolchanger, ``n >= channels``
+  on other dialects;
+* mixes: ``M165`` factors outside [0, 1], not summing to 1 within ``MIX_SUM_TOLERANCE``,
+  or set on a channel the machine lacks; ``M163`` factors outside [0, 1] or channels
+  it lacks; ``M42`` values outside 0..255.
+
+Consecutive faulty moves of one kind are reported once, at the first line, with the
+number of moves and the last line.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+
+import numpy as np
+
+from fgslice.machine.gcode_reader import MIX_LETTERS, Fault, GcodeProgram, read_gcode
+from fgslice.settings import Settings
+
+BED_TOLERANCE_MM = 0.1
+PRIME_ALLOWANCE_MM = 10.0
+MIX_SUM_TOLERANCE = 0.002
+
+
+def _report_runs(program: GcodeProgram, bad: np.ndarray, describe: Callable[[int], str]) -> list[Fault]:
+    """One fault per run of consecutive bad moves; ``describe(i)`` words the first move ``i``."""
+    idx = np.flatnonzero(bad)
+    if not len(idx):
+        return []
+    breaks = np.flatnonzero(np.diff(idx) > 1)
+    firsts = idx[np.concatenate([[0], breaks + 1])]
+    lasts = idx[np.concatenate([breaks, [len(idx) - 1]])]
+    faults = []
+    for first, last in zip(firsts.tolist(), lasts.tolist()):
+        message = describe(first)
+        if last > first:
+            message += f" ({last - first + 1} moves, to line {program.line[last]})"
+        faults.append(Fault(int(program.line[first]), message))
+    return faults
+
+
+def _check_volume(program: GcodeProgram, settings: Settings) -> list[Fault]:
+    limits = np.array([settings.bed_x, settings.bed_y, settings.max_z])
+    bad = ((program.end < -BED_TOLERANCE_MM) | (program.end > limits + BED_TOLERANCE_MM)).any(axis=1)
+
+    def describe(i: int) -> str:
+        x, y, z = program.end[i]
+        return (f"move to X{x:.3f} Y{y:.3f} Z{z:.3f} leaves the build volume "
+                f"{settings.bed_x:g} x {settings.bed_y:g} x {settings.max_z:g} mm")
+
+    return _report_runs(program, bad, describe)
+
+
+def _check_extrusion(program: GcodeProgram, settings: Settings) -> list[Fault]:
+    area = np.pi * settings.filament_diameter**2 / 4.0
+    moving = program.length > 0
+    section = np.zeros(len(program.e))
+    section[moving] = program.e[moving] * area / program.length[moving]
+    too_wide = moving & (section > settings.max_cross_section_mm2)
+    allowance = PRIME_ALLOWANCE_MM + settings.retract_length
+    blob = ~moving & (program.e > allowance)
+    faults = _report_runs(
+        program, too_wide,
+        lambda i: (f"extrudes {section[i]:.3f} mm^2 per mm of travel "
+                   f"(max_cross_section_mm2 = {settings.max_cross_section_mm2:g})"),
+    )
+    faults += _report_runs(
+        program, blob,
+        lambda i: f"extrudes {program.e[i]:.3f} mm of filament without XY motion (allowance {allowance:g} mm)",
+    )
+    return faults
+
+
+def _heated_timeline(program: GcodeProgram) -> tuple[np.ndarray, np.ndarray]:
+    """Lines where the active nozzle's heated temperature changes, and that temperature."""
+    events = [(t.line, 0, t) for t in program.temperatures if t.tool >= 0]
+    events += [(t.line, 1, t) for t in program.tools]
+    events.sort(key=lambda item: (item[0], item[1]))
+    reached: dict[int, float] = {}
+    tool = 0
+    lines, values = [], []
+    for line, kind, event in events:
+        if kind == 1:
+            tool = int(event.values["T"])
+        elif event.wait:
+            reached[event.tool] = event.target
+        else:
+            reached[event.tool] = min(reached.get(event.tool, 0.0), event.target)
+        lines.append(line)
+        values.append(reached.get(tool, 0.0))
+    return np.array(lines, dtype=np.int64), np.array(values, dtype=float)
+
+
+def _check_heating(program: GcodeProgram, settings: Settings) -> list[Fault]:
+    if settings.min_extrude_temperature <= 0:
+        return []
+    lines, values = _heated_timeline(program)
+    at = np.searchsorted(lines, program.line, side="right") - 1
+    heated = np.where(at >= 0, values[np.maximum(at, 0)], 0.0)
+    bad = (program.e > 0) & (heated < settings.min_extrude_temperature)
+    return _report_runs(
+        program, bad,
+        lambda i: (f"extrudes with the nozzle at {heated[i]:g} C, below min_extrude_temperature "
+                   f"{settings.min_extrude_temperature:g} C (heat with M109 first)"),
+    )
+
+
+def _check_events(program: GcodeProgram, settings: Settings) -> list[Fault]:
+    faults = []
+    for t in program.temperatures:
+        bed = t.tool < 0
+        limit = settings.max_bed_temperature if bed else settings.max_nozzle_temperature
+        if t.target > limit or t.target < 0:
+            what = "bed" if bed else "nozzle"
+            faults.append(Fault(t.line, f"{t.command}: {what} temperature {t.target:g} C is outside 0..{limit:g} C"))
+    for f in program.flows:
+        s = f.values.get("S")
+        if s is not None and not settings.min_flow_percent <= s <= settings.max_flow_percent:
+            faults.append(Fault(f.line, f"M221: flow {s:g}% is outside {settings.min_flow_percent:g}.."
+                                        f"{settings.max_flow_percent:g}%"))
+    toolchanger = settings.dialect == "toolchanger"
+    tool_limit = settings.tool_count if toolchanger else settings.channels
+    for t in program.tools:
+        n = int(t.values["T"])
+        if n >= tool_limit:
+            what = f"tool_count = {tool_limit}" if toolchanger else f"channels = {tool_limit}"
+            faults.append(Fault(t.line, f"T{n}: no such tool ({what})"))
+    for m in program.mixes:
+        faults += _mix_faults(m.line, m.command, m.values, settings.channels)
+    for o in program.outputs:
+        s = o.values.get("S")
+        if s is not None and not 0 <= s <= 255:
+            faults.append(Fault(o.line, f"M42: value {s:g} is outside 0..255"))
+    return faults
+
+
+def _mix_faults(line: int, command: str, values: dict[str, float], channels: int) -> list[Fault]:
+    faults = []
+    if command == "M165":
+        factors = {k: v for k, v in values.items() if k in MIX_LETTERS}
+        for k, v in factors.items():
+            if not 0 <= v <= 1:
+                faults.append(Fault(line, f"M165: factor {k}{v:g} is outside [0, 1]"))
+            elif MIX_LETTERS.index(k) >= channels and v > 0:
+                faults.append(Fault(line, f"M165: channel {k} does not exist (channels = {channels})"))
+        total = sum(factors.values())
+        if factors and abs(total - 1.0) > MIX_SUM_TOLERANCE:
+            faults.append(Fault(line, f"M165: factors sum to {total:.4f}, not 1"))
+    elif command == "M163":
+        p, s = values.get("P"), values.get("S")
+        if p is not None and not 0 <= p <= 1:
+            faults.append(Fault(line, f"M163: factor P{p:g} is outside [0, 1]"))
+        if s is not None and not 0 <= s < channels:
+            faults.append(Fault(line, f"M163: channel S{s:g} does not exist (channels = {channels})"))
+    return faults
+
+
+def verify_gcode(program_or_path: GcodeProgram | str | os.PathLike, settings: Settings) -> list[Fault]:
+    """All faults of a G-code program (or file, or text) against ``settings``, by line.
+
+    Raises:
+        GcodeError: the file cannot be read as G-code.
+    """
+    program = program_or_path if isinstance(program_or_path, GcodeProgram) else read_gcode(program_or_path)
+    faults = list(program.faults)
+    faults += _check_volume(program, settings)
+    faults += _check_extrusion(program, settings)
+    faults += _check_heating(program, settings)
+    faults += _check_events(program, settings)
+    return sorted(faults, key=lambda f: f.line)
+
+
+def format_faults(faults: list[Fault], limit: int = 50) -> str:
+    """Faults as text, one per line (``line 12: message``), the first ``limit`` of them."""
+    if not faults:
+        return "no faults"
+    lines = [f"{len(faults)} fault{'s' if len(faults) != 1 else ''}:"]
+    lines += [f"  line {f.line}: {f.message}" for f in faults[:limit]]
+    if len(faults) > limit:
+        lines.append(f"  ... and {len(faults) - limit} more")
+    return "\n".join(lines)
