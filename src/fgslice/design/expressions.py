@@ -425,21 +425,25 @@ def _select_step(srcs: tuple[int, int, int], dst: int, free: tuple[int, ...]) ->
 
 
 def _rho(r: list) -> None:
+    """rho = sqrt(x^2 + y^2), mm."""
     r[_SLOTS["rho"]] = np.hypot(r[_SLOTS["x"]], r[_SLOTS["y"]])
 
 
 def _phi(r: list) -> None:
+    """phi = atan2(y, x) in (-pi, pi], radians."""
     phi = np.arctan2(r[_SLOTS["y"]], r[_SLOTS["x"]])
     np.copyto(phi, np.pi, where=phi <= -np.pi)  # atan2(-0.0, x<0) is -pi; the range is (-pi, pi]
     r[_SLOTS["phi"]] = phi
 
 
 def _r(r: list) -> None:
+    """r = sqrt(x^2 + y^2 + z^2), mm (reuses rho when computed)."""
     planar = r[_SLOTS["rho"]] if r[_SLOTS["rho"]] is not None else np.hypot(r[_SLOTS["x"]], r[_SLOTS["y"]])
     r[_SLOTS["r"]] = np.hypot(planar, r[_SLOTS["z"]])
 
 
 def _phis(r: list) -> None:
+    """phis = acos(z / r) in [0, pi], radians; 0 at the origin."""
     radius = r[_SLOTS["r"]]
     cosine = np.ones(r[_SHAPE])  # acos(1) = 0 at the origin
     np.divide(r[_SLOTS["z"]], radius, out=cosine, where=radius > 0)
