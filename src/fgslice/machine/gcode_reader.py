@@ -165,7 +165,7 @@ def _table(chars: str) -> np.ndarray:
 
 
 _AXIS_TABLE = _table(_AXES + _AXES.lower())
-_DELIM_TABLE = _table(" \t\r\n;" + "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz")
+_DELIM_TABLE = _table(" \t\r\n;")
 _MOVE_END_TABLE = _table(" \t\r\n;")
 _COMMENT_KEYS = _table("TWLZS")
 
@@ -243,7 +243,7 @@ class _Events:
             except ValueError:
                 v = math.nan
             if not math.isfinite(v):
-                if w[1:] or key not in "XYZ":
+                if w[1:]:
                     self.faults.append(Fault(num, f"{words[0]}: {key} value '{w[1:]}' is not a finite number"))
                 continue
             out[key] = v
@@ -376,7 +376,8 @@ def _tokens(buf: np.ndarray, starts: np.ndarray, first: np.ndarray, is_move: np.
     """Axis words of move lines: (line index, upper-case letter, value, valid) per word."""
     pos = np.flatnonzero(_AXIS_TABLE[buf])
     lid = np.searchsorted(starts, pos, side="right") - 1
-    keep = is_move[lid] & (pos < comment_start[lid]) & (pos > first[lid] + 1)
+    blank_before = (buf[pos - 1] == 32) | (buf[pos - 1] == 9)
+    keep = is_move[lid] & (pos < comment_start[lid]) & (pos > first[lid] + 1) & blank_before
     pos, lid = pos[keep], lid[keep]
     delims = np.append(np.flatnonzero(_DELIM_TABLE[buf]), len(buf))
     width = delims[np.searchsorted(delims, pos + 1)] - pos - 1
@@ -389,8 +390,9 @@ def read_gcode(path_or_text: str | os.PathLike | bytes) -> GcodeProgram:
     """Read G-code from a file path, bytes or a string holding the text.
 
     Moves (G0-G3) are parsed in bulk with numpy; every other line goes through a small
-    sequential interpreter. Axis words must be written as a letter followed by a plain
-    decimal number (``X-1.25``); exponents, NaN and inf are faults.
+    sequential interpreter. In moves, words are separated by blanks (``G1 X1 Y2``, as
+    every slicer writes them) and axis values are plain decimal numbers (``X-1.25``);
+    exponents, NaN, inf and other text are faults.
 
     Raises:
         GcodeError: the input is not readable G-code text, is empty or has no moves.
