@@ -123,14 +123,18 @@ def mixing_deposit(
     total = edges[-1]
     changed = np.flatnonzero(np.any(cmd[1:] != cmd[:-1], axis=1)) + 1
     arrivals = np.concatenate([[v_plug], edges[changed] + v_plug])
-    grid = np.union1d(edges, arrivals[arrivals < total])
+    arrivals = arrivals[arrivals < total]
+    # merge the (few) arrival points into the sorted segment edges; drop repeated points
+    grid = np.insert(edges, np.searchsorted(edges, arrivals), arrivals)
+    is_edge = np.insert(np.ones(n + 1, dtype=bool), np.searchsorted(edges, arrivals), False)
+    groups = np.flatnonzero(np.r_[True, np.diff(grid) > 0])
+    grid, is_edge = grid[groups], np.logical_or.reduceat(is_edge, groups)
     widths = np.diff(grid)
     mids = grid[:-1] + widths / 2
     source = np.searchsorted(edges, mids - v_plug, side="right") - 1
     inputs = np.where((source < 0)[:, None], start, cmd[np.clip(source, 0, n - 1)])
     mean = lag_average(widths, inputs, v_mix, start)
-    segment = np.searchsorted(edges, mids, side="right") - 1
-    first = np.searchsorted(segment, np.arange(n))
+    first = np.flatnonzero(is_edge[:-1])
     return np.add.reduceat(mean * widths[:, None], first, axis=0) / vol[:, None]
 
 
