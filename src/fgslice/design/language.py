@@ -387,7 +387,10 @@ def _syntax_error(exc: lark.exceptions.LarkError, text: str, file: str | None) -
     lines = text.splitlines()
     line = getattr(exc, "line", None)
     column = getattr(exc, "column", None)
-    if line is None or line < 1:
+    at_end = isinstance(exc, lark.exceptions.UnexpectedEOF) or (
+        isinstance(exc, lark.exceptions.UnexpectedToken) and exc.token.type == "$END"
+    )
+    if line is None or line < 1 or at_end:
         line = max(len(lines), 1)
         column = len(lines[-1]) + 1 if lines else 1
     source = lines[line - 1] if 0 < line <= len(lines) else ""
