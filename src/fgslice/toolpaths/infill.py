@@ -17,7 +17,7 @@ link after it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 import shapely
@@ -35,6 +35,10 @@ VOLUME_TOLERANCE = 0.01
 
 SPACING_CANDIDATES = (0.96, 0.98, 1.0, 1.02, 1.04)
 """Factors around the corrected spacing tried when a fill misses its volume."""
+
+SLIVER_MIN_AREA_PER_MM = 0.05
+"""A part's opening is searched for slivers only when it loses more than this many bead
+widths of area per mm of the part's boundary (less is the rounding of mitre corners)."""
 
 SLIVER_MIN_THICKNESS = 1e-3
 """Gap fills are made only for slivers at least this thick on average (mm); thinner ones
@@ -233,7 +237,7 @@ class Loops:
     def paths(self, roles, colors, height: float) -> list[Path]:
         """The loops as closed paths (``roles``/``colors``: one value or one per ring)."""
         out = split_rings(self.coords, self.ring, roles, colors, 1.0, height)
-        return [replace(p, width=float(w)) for p, w in zip(out, self.width)]
+        return [Path(p.points, p.role, p.color, w, height, True) for p, w in zip(out, self.width.tolist())]
 
 
 def concentric_levels(regions, first: float, spacing: float, width: float, height: float, *,
@@ -242,41 +246,48 @@ def concentric_levels(regions, first: float, spacing: float, width: float, heigh
 
     Loop ``k`` of region ``r`` is the boundary of ``regions[r]`` eroded by
     ``first + k * spacing`` and opened by ``spacing / 2`` (no loop around a sliver
-    narrower than the spacing). Erosion proceeds level by level over all regions
-    still non-empty (one vectorized offset per level), at most ``max_levels`` levels.
+    narrower than the spacing). Erosion proceeds level by level over the connected
+    parts of all regions still non-empty (one vectorized offset per step), at most
+    ``max_levels`` levels.
 
-    With ``gap_fill``, each sliver an opening removes (the eroded region minus its
-    opening: parts narrower than a spacing, e.g. the middle of a face) is printed as
-    its own boundary loop with a reduced width ``w'`` chosen so that the loop deposits
-    the sliver's share of material: with sliver area ``a`` and perimeter ``p`` (so mean
-    thickness ``2 a / p``), ``w' = a / p + s / 2 + h (1 - pi/4)``, clipped to ``[h, w]``.
-    Slivers shorter than a bead (``p / 2 < w``) or thinner than
-    :data:`SLIVER_MIN_THICKNESS` are dropped.
+    With ``gap_fill``, each sliver the opening removes (a part thinner than a spacing,
+    e.g. the middle of a face or a tapering end) is printed as its own boundary loop with
+    a reduced width ``w'`` chosen so that the loop deposits the sliver's share of
+    material: with sliver area ``a`` and perimeter ``p`` (mean thickness ``2 a / p``),
+    ``w' = a / p + s / 2 + h (1 - pi/4)``, clipped to ``[h, w]``. Slivers shorter than
+    a bead (``p / 2 < w``) or thinner than :data:`SLIVER_MIN_THICKNESS` are dropped.
+    Slivers are cut out (an overlay) only from parts whose opening lost a noticeable
+    area (:data:`SLIVER_MIN_AREA_PER_MM`).
     """
     regions = np.atleast_1d(np.asarray(regions, dtype=object))
-    active = np.flatnonzero(~shapely.is_empty(regions))
-    current = offset(regions[active], -first)
+    parts, owner = shapely.get_parts(offset(regions, -first), return_index=True)
     geoms, owners, levels, widths = [], [], [], []
     level = 0
-    while len(active) and (max_levels is None or level < max_levels):
-        half = offset(current, -spacing / 2)
+    while len(parts) and (max_levels is None or level < max_levels):
+        half = offset(parts, -spacing / 2)
+        alive = ~shapely.is_empty(half)
         opened = offset(half, spacing / 2)
         if gap_fill:
-            parts, src = shapely.get_parts(shapely.difference(current, opened), return_index=True)
-            area, perimeter = shapely.area(parts), shapely.length(parts)
+            # slivers: whole parts the opening removes, and parts of the rest whose
+            # opening lost more than a thin rim's worth of area
+            lost = shapely.area(parts) - shapely.area(opened)
+            cut = alive & (lost > SLIVER_MIN_AREA_PER_MM * width * shapely.length(parts))
+            pieces = np.concatenate([parts[~alive], shapely.difference(parts[cut], opened[cut])])
+            thin, src_thin = shapely.get_parts(pieces, return_index=True)
+            thin_owner = np.concatenate([owner[~alive], owner[cut]])[src_thin]
+            area, perimeter = shapely.area(thin), shapely.length(thin)
             keep = (perimeter / 2 >= width) & (2 * area >= SLIVER_MIN_THICKNESS * perimeter)
-            thin = np.clip(area[keep] / perimeter[keep] + spacing / 2 + height * (1 - np.pi / 4), height, width)
-            geoms.append(parts[keep])
-            owners.append(active[src[keep]])
+            geoms.append(thin[keep])
+            owners.append(thin_owner[keep])
             levels.append(np.full(keep.sum(), -1))
-            widths.append(thin)
-        alive = ~shapely.is_empty(half)
-        active, half, opened = active[alive], half[alive], opened[alive]
+            widths.append(np.clip(area[keep] / perimeter[keep] + spacing / 2 + height * (1 - np.pi / 4), height, width))
+        half, owner, opened = half[alive], owner[alive], opened[alive]
         geoms.append(opened)
-        owners.append(active)
-        levels.append(np.full(len(active), level))
-        widths.append(np.full(len(active), width))
-        current = offset(half, -spacing / 2)
+        owners.append(owner)
+        levels.append(np.full(len(owner), level))
+        widths.append(np.full(len(owner), width))
+        parts, src = shapely.get_parts(offset(half, -spacing / 2), return_index=True)
+        owner = owner[src]
         level += 1
     if not geoms:
         empty = np.empty(0, int)

@@ -12,6 +12,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numpy as np
 import shapely
 
 from fgslice.settings import Settings
@@ -24,13 +25,17 @@ def exposed(outline, neighbours: Sequence, count: int):
 
     ``neighbours`` are the outlines of the adjacent layers, nearest first; missing
     layers count as empty, so the whole outline is exposed when fewer than ``count``
-    are given. ``count = 0`` exposes nothing.
+    are given. ``count = 0`` exposes nothing. Neighbours that cover the outline (the
+    usual case inside a part) are recognised by a predicate, without any overlay.
     """
     if count == 0:
         return shapely.Polygon()
     if len(neighbours) < count:
         return outline
-    return shapely.difference(outline, shapely.intersection_all(list(neighbours[:count])))
+    near = np.asarray(list(neighbours[:count]), dtype=object)
+    if np.all(shapely.covers(near, outline)):
+        return shapely.Polygon()
+    return shapely.difference(outline, shapely.intersection_all(near))
 
 
 @dataclass(frozen=True)
@@ -53,13 +58,17 @@ def split_inner(inner, outline, below: Sequence, above: Sequence, settings: Sett
 
     A density of 100 % makes everything solid (role SOLID_INFILL where not top skin).
     """
-    top = shapely.intersection(inner, exposed(outline, above, settings.top_layers))
-    bottom = shapely.intersection(inner, exposed(outline, below, settings.bottom_layers))
+    empty = shapely.Polygon()
+    top = exposed(outline, above, settings.top_layers)
+    bottom = exposed(outline, below, settings.bottom_layers)
+    top = empty if top.is_empty else shapely.intersection(inner, top)
     if settings.infill_density >= 100.0:
-        bottom = inner
+        return InnerAreas(top, shapely.difference(inner, top) if not top.is_empty else inner, empty)
+    bottom = empty if bottom.is_empty else shapely.intersection(inner, bottom)
+    if top.is_empty and bottom.is_empty:
+        return InnerAreas(empty, empty, inner)
     solid = shapely.difference(bottom, top)
-    sparse = shapely.difference(inner, shapely.union(top, bottom))
-    return InnerAreas(top, solid, sparse)
+    return InnerAreas(top, solid, shapely.difference(inner, shapely.union(top, bottom)))
 
 
 def fill_inner(areas: InnerAreas, layer_index: int, settings: Settings) -> list[Path]:

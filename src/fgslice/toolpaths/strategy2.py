@@ -1,6 +1,8 @@
 """Strategy 2, "continuous printing against the gradient": every color face filled densely.
 
-Each face (one per palette color, bed frame, mm) is inset so that its outermost
+Each face (one per palette color, bed frame, mm) is first simplified to half the
+``gcode_resolution`` (faces traced on a grid carry far more vertices than offsets
+need), then inset so that its outermost
 centerline lies exactly ``w / 2`` inside the face, then filled:
 
 * ``concentric``: successive inward offsets ``s = A / h`` apart until nothing is left
@@ -18,6 +20,7 @@ are not printed; their area is reported in ``LayerPaths.uncovered_mm2``.
 from __future__ import annotations
 
 import numpy as np
+import shapely
 
 from fgslice.settings import Settings
 from fgslice.slicing.layers import LayerRegions
@@ -31,7 +34,7 @@ def layer_paths(regions: LayerRegions, settings: Settings) -> LayerPaths:
     """Dense toolpaths of every color face of one layer (colors = face indices)."""
     w, h = settings.bead_width, settings.layer_height
     s = bead_spacing(w, h)
-    faces = np.asarray(regions.faces, dtype=object)
+    faces = shapely.simplify(np.asarray(regions.faces, dtype=object), settings.gcode_resolution / 2, preserve_topology=False)
     out = LayerPaths(regions.index, regions.z, regions.height)
     if len(faces) == 0:
         return out
