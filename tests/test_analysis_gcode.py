@@ -117,3 +117,17 @@ def test_temperature_dialect_lags_by_the_thermal_half_time(tmp_path):
     speeds = np.array([settings.first_layer_speed, settings.print_speed, settings.print_speed])
     expected = settings.tau_s * math.log(2) * speeds / (20.0 + settings.bead_width)
     assert np.all(np.abs(beads - expected) <= 1.0)
+
+
+def test_settings_come_from_the_file_unless_a_profile_is_given(tmp_path):
+    from fgslice.analysis.calibrate import write_calibration
+    from fgslice.analysis.simulate import simulation_settings
+
+    out = tmp_path / "cal.gcode"
+    write_calibration(out, load_settings("foam-lwpla", {"melt_volume_mm3": "12.5", "tau_s": "5"}))
+    own = simulation_settings(out)
+    assert (own.dialect, own.melt_volume_mm3, own.tau_s, own.bed_x) == ("temperature", 12.5, 5.0, 250.0)
+    assert simulation_settings(out, overrides={"tau_s": "3"}).tau_s == 3.0
+    assert simulation_settings(out, "marlin-mixing").dialect == "marlin-mixing"
+    other = simulation_settings(prusa_style_gcode())
+    assert other.profile_name == "marlin-mixing"

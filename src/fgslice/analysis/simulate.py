@@ -28,7 +28,7 @@ coordinates of a trace are in the bed frame (``bed = design + placement offset``
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from os import PathLike
 from pathlib import Path as FilePath
 
@@ -418,7 +418,13 @@ def trace_from_plans(plans, centers: np.ndarray, settings) -> SegmentTrace:
     )
 
 
-_HEADER = re.compile(r"^;\s*(placement_offset|colors)\s*=\s*(.*?)\s*$", re.MULTILINE)
+#: Settings a simulation depends on, read back from the ``; key = value`` comments fgslice writes.
+SIMULATION_KEYS = (
+    "profile_name", "dialect", "channels", "tool_count", "colors", "melt_volume_mm3", "mixing_share", "tau_s",
+    "temperature_a", "temperature_b", "nozzle_temperature", "filament_diameter", "layer_height", "bead_width",
+    "travel_speed", "bed_x", "bed_y", "center", "position_x", "position_y",
+)
+_HEADER = re.compile(r"^;\s*(placement_offset|" + "|".join(SIMULATION_KEYS) + r")\s*=\s*(.*?)\s*$", re.MULTILINE)
 _NON_PART_ROLES = ("skirt", "brim", "wipe", "prime", "purge", "custom")
 
 
@@ -429,14 +435,19 @@ class GcodeHeader:
     Attributes:
         placement_offset: ``bed = design + offset`` (mm), or None when absent.
         colors: palette size N, or None when absent.
+        settings: the file's values of :data:`SIMULATION_KEYS` as written (strings), to
+            be used as ``load_settings(profile, overrides)`` overrides when simulating
+            without an explicit profile.
     """
 
     placement_offset: tuple[float, float, float] | None = None
     colors: int | None = None
+    settings: dict[str, str] = field(default_factory=dict)
 
 
 def read_header(text: str, file: str | None = None) -> GcodeHeader:
-    """Scan G-code text for ``; placement_offset = dx,dy,dz`` and ``; colors = N`` (first wins)."""
+    """Scan G-code text for ``; placement_offset = dx,dy,dz``, ``; colors = N`` and the
+    other :data:`SIMULATION_KEYS` comments (the first occurrence of a key wins)."""
     found: dict[str, tuple[str, int]] = {}
     for match in _HEADER.finditer(text):
         found.setdefault(match.group(1), (match.group(2), text.count("\n", 0, match.start()) + 1))
@@ -456,7 +467,27 @@ def read_header(text: str, file: str | None = None) -> GcodeHeader:
         if not value.isdigit() or int(value) < 1:
             raise GcodeError(f"colors '{value}' is not a palette size", file=file, line=line, hint="expected '; colors = N'")
         colors = int(value)
-    return GcodeHeader(offset, colors)
+    values = {key: value for key, (value, _) in found.items() if key != "placement_offset"}
+    return GcodeHeader(offset, colors, values)
+
+
+def simulation_settings(gcode: str | PathLike | bytes, profile: str | None = None, overrides: dict[str, str] | None = None):
+    """Settings to simulate a G-code file with.
+
+    With ``profile``: ``load_settings(profile, overrides)``, the file's comments ignored.
+    Without: the file's own :data:`SIMULATION_KEYS` comments (fgslice writes every
+    setting into its G-code) over its built-in profile (or the default profile), then
+    ``overrides`` (``--set``, ``--melt-volume``). A file without such comments (another
+    slicer's) gets the default profile.
+    """
+    from fgslice.settings import builtin_profiles, load_settings
+
+    if profile is not None:
+        return load_settings(profile, overrides)
+    values = dict(read_header(*_gcode_text(gcode)).settings)
+    name = values.pop("profile_name", None)
+    values.update(overrides or {})
+    return load_settings(name if name in builtin_profiles() else None, values)
 
 
 def _state_compositions(program, settings, centers: np.ndarray, n_materials: int) -> np.ndarray:
