@@ -446,10 +446,12 @@ class GcodeHeader:
 
 
 def read_header(text: str, file: str | None = None) -> GcodeHeader:
-    """Scan G-code text for ``; placement_offset = dx,dy,dz``, ``; colors = N`` and the
-    other :data:`SIMULATION_KEYS` comments (the first occurrence of a key wins)."""
+    """Scan the header of G-code text (everything before the first ``;LAYER_CHANGE``) for
+    ``; placement_offset = dx,dy,dz``, ``; colors = N`` and the other
+    :data:`SIMULATION_KEYS` comments (the first occurrence of a key wins)."""
+    end = text.find(";LAYER_CHANGE")
     found: dict[str, tuple[str, int]] = {}
-    for match in _HEADER.finditer(text):
+    for match in _HEADER.finditer(text, 0, len(text) if end < 0 else end):
         found.setdefault(match.group(1), (match.group(2), text.count("\n", 0, match.start()) + 1))
     offset = colors = None
     if "placement_offset" in found:
