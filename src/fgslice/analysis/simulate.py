@@ -289,11 +289,6 @@ class SimulationResult:
     palette_size: int | None
     model: MeltModel
 
-    @property
-    def midpoint(self) -> np.ndarray:
-        """``(n, 3)`` segment midpoints, bed frame, mm."""
-        return (self.start + self.end) / 2
-
 
 def designed_at(design: Design, offset: tuple[float, float, float], points: np.ndarray, height: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The design's fractions and signed distance at bead centers.
@@ -595,7 +590,8 @@ def simulate(
 
     Raises:
         GcodeError: unreadable G-code or malformed header comments.
-        SettingsError: a negative melt volume, equal temperatures of the mapping.
+        SettingsError: a negative melt volume, equal temperatures of the mapping, a
+            temperature profile for a design of other than two materials.
     """
     from fgslice.machine.gcode_reader import GcodeProgram, read_gcode
     from fgslice.slicing.palette import Palette
@@ -608,6 +604,11 @@ def simulate(
         text, name = _gcode_text(gcode)
         header = read_header(text, name)
         program = read_gcode(text)
+    if settings.dialect == "temperature" and len(design.materials) != 2:
+        raise SettingsError(
+            f"the temperature dialect grades two materials; the design has {len(design.materials)}",
+            hint="simulate with the profile the G-code was sliced for (--profile)",
+        )
     size = palette_size or header.colors or (settings.tool_count if settings.dialect == "toolchanger" else settings.colors)
     palette = Palette(len(design.materials), size)
     if placement is not None:
