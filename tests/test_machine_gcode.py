@@ -193,3 +193,18 @@ def test_format_moves_matches_python_formatting():
         assert float(words[2][1:]) == float(f"{y[k]:.3f}")
         assert not words[1].endswith("0") or "." not in words[1]
     assert offsets[-1] == len(text)
+
+
+def test_state_change_before_a_degenerate_path_is_kept():
+    dot = np.array([[30.0, 30.0], [30.0001, 30.0]])
+    line = np.array([[30.0, 40.0], [50.0, 40.0]])
+    plan = LayerPlan(0, 0.2, 0.2, [SetState(0), Path(line, Role.PERIMETER, 0, 0.4, 0.2), SetState(1),
+                                   Path(dot, Role.PERIMETER, 1, 0.4, 0.2), Path(line[::-1], Role.PERIMETER, -1, 0.4, 0.2),
+                                   SetState(3)])
+    text, stats, _ = write([plan])
+    lines = text.splitlines()
+    m1, m3 = lines.index("M165 A0.3750 B0.6250"), lines.index("M165 A0.8750 B0.1250")
+    second = [i for i, l in enumerate(lines) if l.startswith("G1 X30 Y40")]
+    assert m1 < second[0] < m3
+    assert stats["state_changes"] == 3 and stats["warnings"] == ["1 paths shorter than 0.001 mm were not written"]
+    assert stats["extruded_mm3_by_color"][1] == pytest.approx(20 * bead_area(0.4, 0.2), rel=1e-4)

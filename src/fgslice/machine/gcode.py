@@ -262,29 +262,31 @@ class GcodeWriter:
         before: list[str] = []
         resets: list[bool] = []
         colors: list[int] = []
-        pending: list[str] = []
-        reset = False
+        pending, reset = "", False
+        moves_head = self.dialect.moves_head
         for step in plan.steps:
-            color = step.color
-            if isinstance(step, Path):
-                if self._state is not None or color < 0:
-                    color = None
-            if color is not None:
-                change = self._set_state(color)
-                if change:
-                    pending.append(change)
-                    reset = reset or self.dialect.moves_head
-            if isinstance(step, Path):
+            if step.__class__ is SetState:
+                change = self._set_state(step.color)
+            elif self._state is None and step.color >= 0:
+                change = self._set_state(step.color)
+            else:
+                change = ""
+            if change:
+                pending += change
+                reset = reset or moves_head
+            if step.__class__ is not SetState:
                 paths.append(step)
-                before.append("".join(pending))
+                before.append(pending)
                 resets.append(reset)
                 colors.append(-1 if self._state is None else self._state)
-                pending, reset = [], False
+                pending, reset = "", False
         if paths:
-            parts.extend(self._write_paths(paths, before, resets, colors, plan.index, pending))
+            trailing = [pending] if pending else []
+            parts.extend(self._write_paths(paths, before, resets, colors, plan.index, trailing))
+            pending = "".join(trailing)
         if pending:
-            parts.extend(pending)
-            if self.dialect.moves_head:
+            parts.append(pending)
+            if moves_head:
                 self._pos = None
         self._stats_layers += 1
         self.out.write("".join(parts))
@@ -299,15 +301,16 @@ class GcodeWriter:
         self._time_s += self.dialect.change_time_s
         return "\n".join(self.dialect.state_commands(color)) + "\n"
 
-    def _feed_of(self, role: Role, layer_index: int) -> float:
+    def _feeds(self, roles: list[Role], layer_index: int) -> np.ndarray:
+        """Print speed (mm/s) of paths of ``roles`` on layer ``layer_index``."""
         s = self.settings
         if layer_index == 0:
-            return s.first_layer_speed
-        if role is Role.EXTERNAL_PERIMETER:
-            return s.outer_wall_speed
-        if role is Role.INTERNAL_INFILL:
-            return s.infill_speed
-        return s.print_speed
+            return np.full(len(roles), s.first_layer_speed)
+        kinds = np.array(roles, dtype=object)
+        feeds = np.full(len(roles), s.print_speed)
+        feeds[kinds == Role.EXTERNAL_PERIMETER] = s.outer_wall_speed
+        feeds[kinds == Role.INTERNAL_INFILL] = s.infill_speed
+        return feeds
 
     def _retract_line(self, sign: int = -1) -> str:
         """``G1 E-<retract_length>`` (``sign`` -1) or the un-retraction (``sign`` 1)."""
@@ -349,7 +352,7 @@ class GcodeWriter:
         if not len(printed):
             return []
 
-        areas = np.fromiter((bead_area(p.width, p.height) for p in paths), dtype=float, count=len(paths))
+        areas = bead_area(np.array([p.width for p in paths]), np.array([p.height for p in paths]))
         lengths = seg[moves]
         exact = np.cumsum(lengths * areas[move_path] / self.filament_area) + self._e_total
         rounded = np.round(exact, 5)
@@ -363,7 +366,9 @@ class GcodeWriter:
 
         pp = [paths[i] for i in printed.tolist()]
         n = len(pp)
-        feeds = np.fromiter((self._feed_of(p.role, layer_index) for p in pp), dtype=float, count=n)
+        roles = [p.role for p in pp]
+        widths = [p.width for p in pp]
+        feeds = self._feeds(roles, layer_index)
         starts = pts[first[printed]]
         last = ends[row_start[printed + 1] - 1]
         prev = np.vstack([[np.nan, np.nan] if self._pos is None else [self._pos], last[:-1]])
@@ -387,8 +392,6 @@ class GcodeWriter:
         header[travel] += np.array(_split(travel_text, travel_off, np.arange(travel.sum() + 1)), dtype=object)
         header[hop] += f"G1 Z{fmt(self._z, 3)} F{fmt(s.z_speed * 60, 1)}\n"
         header[retracted] += self._retract_line(1)
-        roles = [p.role for p in pp]
-        widths = [p.width for p in pp]
         header += [
             f";TYPE:{r.value}\n" if r is not q else "" for r, q in zip(roles, [self._role] + roles[:-1])
         ]
@@ -396,7 +399,8 @@ class GcodeWriter:
             f";WIDTH:{fmt(w, 4)}\n" if w != q else "" for w, q in zip(widths, [self._width] + widths[:-1])
         ]
         new_feed = travel | (feeds != np.append(np.nan if self._feed is None else self._feed, feeds[:-1]))
-        header[new_feed] += np.array([f"G1 F{fmt(f * 60, 1)}\n" for f in feeds[new_feed].tolist()], dtype=object)
+        feed_lines = {f: f"G1 F{fmt(f * 60, 1)}\n" for f in np.unique(feeds[new_feed]).tolist()}
+        header[new_feed] += np.array([feed_lines[f] for f in feeds[new_feed].tolist()], dtype=object)
 
         n_retract, n_hop = int(retract.sum()), int(hop.sum())
         self._retractions += n_retract

@@ -114,11 +114,6 @@ class GcodeProgram:
     unknown_lines: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     line_count: int = 0
 
-    @property
-    def extruding(self) -> np.ndarray:
-        """(M,) bool: moves with positive E."""
-        return self.e > 0
-
     def flow_of_moves(self) -> np.ndarray:
         """(M,) M221 flow (percent) each move was printed with."""
         flows = np.array([s.flow for s in self.states], dtype=float)
@@ -165,7 +160,7 @@ def _table(chars: str) -> np.ndarray:
 
 
 _AXIS_TABLE = _table(_AXES + _AXES.lower())
-_DELIM_TABLE = _table(" \t\r\n;")
+_END_TABLE = _table(" \t\r\n;\x00")
 _MOVE_END_TABLE = _table(" \t\r\n;")
 _COMMENT_KEYS = _table("TWLZS")
 
@@ -340,24 +335,30 @@ class _Events:
         self.after.append((self.layer, self.role, self.state, self.width))
 
 
-def _parse_numbers(padded: np.ndarray, begin: np.ndarray, width: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Values of the plain decimal numbers ``padded[begin : begin + width]``.
+def _parse_numbers(padded: np.ndarray, begin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Values of the plain decimal numbers starting at ``padded[begin]``.
 
-    A number is an optional sign, digits with at most one point, at least one digit and
-    at most 15 digits in all, at most ``_TOKEN_WIDTH`` characters. The mantissa is built
-    as an integer and divided by a power of ten: both are exact in float64, so the
-    result is the correctly rounded value, the same as ``float(text)``. Returns the
-    values and a validity mask.
+    A number runs to the next blank, ``;`` or line end; it is an optional sign, digits
+    with at most one point, at least one digit and at most 15 digits in all, at most
+    ``_TOKEN_WIDTH`` characters. The mantissa is built as an integer and divided by a
+    power of ten: both are exact in float64, so the result is the correctly rounded
+    value, the same as ``float(text)``. Returns the values and a validity mask.
     """
     n = len(begin)
     mantissa = np.zeros(n)
     decimals = np.zeros(n, dtype=np.int64)
     n_digits = np.zeros(n, dtype=np.int64)
     points = np.zeros(n, dtype=np.int64)
-    bad = (width <= 0) | (width > _TOKEN_WIDTH)
+    bad = np.zeros(n, dtype=bool)
+    ended = np.zeros(n, dtype=bool)
     negative = padded[begin] == 45
-    for k in range(min(_TOKEN_WIDTH, int(width.max()) if n else 0)):
-        c = np.where(k < width, padded[begin + k], np.uint8(0))
+    for k in range(_TOKEN_WIDTH + 1):
+        c = padded[begin + k]
+        ended |= _END_TABLE[c]
+        if k == _TOKEN_WIDTH or ended.all():
+            bad |= ~ended
+            break
+        c = np.where(ended, np.uint8(0), c)
         is_digit = (c >= 48) & (c <= 57)
         is_point = c == 46
         sign_ok = (c == 45) | (c == 43) if k == 0 else False
@@ -371,19 +372,20 @@ def _parse_numbers(padded: np.ndarray, begin: np.ndarray, width: np.ndarray) -> 
     return np.where(negative, -values, values), ~bad
 
 
-def _tokens(buf: np.ndarray, starts: np.ndarray, first: np.ndarray, is_move: np.ndarray,
+def _tokens(padded: np.ndarray, n_bytes: int, starts: np.ndarray, first: np.ndarray, is_move: np.ndarray,
             comment_start: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Axis words of move lines: (line index, upper-case letter, value, valid) per word."""
-    pos = np.flatnonzero(_AXIS_TABLE[buf])
+    """Axis words of move lines: (line index, upper-case letter, value, valid) per word.
+
+    A word is an axis letter right after a blank, before the line's comment.
+    """
+    buf = padded[:n_bytes]
+    blanks = np.flatnonzero((buf == 32) | (buf == 9))
+    pos = blanks[_AXIS_TABLE[padded[blanks + 1]]] + 1
     lid = np.searchsorted(starts, pos, side="right") - 1
-    blank_before = (buf[pos - 1] == 32) | (buf[pos - 1] == 9)
-    keep = is_move[lid] & (pos < comment_start[lid]) & (pos > first[lid] + 1) & blank_before
+    keep = is_move[lid] & (pos < comment_start[lid]) & (pos > first[lid] + 1)
     pos, lid = pos[keep], lid[keep]
-    delims = np.append(np.flatnonzero(_DELIM_TABLE[buf]), len(buf))
-    width = delims[np.searchsorted(delims, pos + 1)] - pos - 1
-    padded = np.concatenate([buf, np.zeros(_TOKEN_WIDTH + 1, dtype=np.uint8)])
-    values, valid = _parse_numbers(padded, pos + 1, width)
-    return lid, buf[pos] & 0xDF, values, valid
+    values, valid = _parse_numbers(padded, pos + 1)
+    return lid, padded[pos] & 0xDF, values, valid
 
 
 def read_gcode(path_or_text: str | os.PathLike | bytes) -> GcodeProgram:
@@ -403,7 +405,7 @@ def read_gcode(path_or_text: str | os.PathLike | bytes) -> GcodeProgram:
     ends = newlines if buf[-1] == 10 else np.append(newlines, len(buf))
     starts = np.concatenate([[0], newlines + 1])[: len(ends)]
     n_lines = len(ends)
-    padded = np.concatenate([buf, np.zeros(4, dtype=np.uint8)])
+    padded = np.concatenate([buf, np.zeros(_TOKEN_WIDTH + 2, dtype=np.uint8)])
 
     first = starts.copy()
     for i in np.flatnonzero((padded[starts] == 32) | (padded[starts] == 9)).tolist():
@@ -435,7 +437,7 @@ def read_gcode(path_or_text: str | os.PathLike | bytes) -> GcodeProgram:
     n_rows = len(move_lines)
     row_of_line = np.full(n_lines, -1, dtype=np.int64)
     row_of_line[move_lines] = np.arange(n_rows)
-    lid, letters, values, valid = _tokens(buf, starts, first, is_move, comment_start)
+    lid, letters, values, valid = _tokens(padded, len(buf), starts, first, is_move, comment_start)
     faults = list(events.faults)
     for i in np.flatnonzero(~valid).tolist():
         word = data[starts[lid[i]] : ends[lid[i]]].decode("utf-8", errors="replace").split(";")[0].strip()
