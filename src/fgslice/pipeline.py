@@ -18,7 +18,9 @@ only on the design, the settings and the layer index.
 
 from __future__ import annotations
 
+import os
 import time
+from datetime import datetime, timezone
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path as FilePath
@@ -224,7 +226,9 @@ def slice_to_gcode(
         **(comments or {}),
     }
     with atomic_output(output) as handle:
-        writer = GcodeWriter(handle, settings, palette, dialect, comments=header, thumbnails=thumbnails)
+        writer = GcodeWriter(
+            handle, settings, palette, dialect, comments=header, thumbnails=thumbnails, now=_build_time()
+        )
         writer.write_header()
         for plan in stream:
             writer.write_layer(plan)
@@ -256,6 +260,13 @@ def slice_to_gcode(
         }
     )
     return SliceResult(output=FilePath(output), stats=stats)
+
+
+def _build_time() -> datetime | None:
+    """The time stamp for the G-code's first line: ``SOURCE_DATE_EPOCH`` when set (for
+    reproducible output), else None (the writer uses the current time)."""
+    epoch = os.environ.get("SOURCE_DATE_EPOCH", "").strip()
+    return datetime.fromtimestamp(int(epoch), tz=timezone.utc) if epoch.isdigit() else None
 
 
 def _dedupe(items: list[str]) -> list[str]:

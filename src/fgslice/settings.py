@@ -127,6 +127,15 @@ class Settings(BaseModel):
             raise ValueError(
                 f"bead_width ({self.bead_width} mm) must be at least layer_height ({self.layer_height} mm)"
             )
+        from fgslice.toolpaths.paths import bead_area
+
+        area = bead_area(self.bead_width, self.layer_height)
+        if area > self.max_cross_section_mm2:
+            raise ValueError(
+                f"a {self.bead_width} x {self.layer_height} mm bead has a {area:.3f} mm^2 cross-section, more than "
+                f"this machine's max_cross_section_mm2 = {self.max_cross_section_mm2}; use a smaller bead or layer, "
+                "or raise max_cross_section_mm2 if the machine can extrude that much"
+            )
         if isinstance(self.lookahead_mm, float) and self.lookahead_mm < 0:
             raise ValueError("lookahead_mm must be >= 0 or 'auto'")
         return self

@@ -1,0 +1,102 @@
+"""The command line: a usable summary on success, one clear message and no file on error."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from click.testing import CliRunner
+
+from fgslice.cli import main
+
+BOX = 'fgrade(["x/40 + 0.5", "0.5 - x/40"], ["blue", "yellow"]) { rectprism(40, 20, 1); }\n'
+
+
+@pytest.fixture
+def design(tmp_path):
+    path = tmp_path / "box.vcad"
+    path.write_text(BOX, encoding="utf-8")
+    return path
+
+
+def run(*args):
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+def test_slice_writes_gcode_stats_and_a_summary(design, tmp_path):
+    out, stats = tmp_path / "box.gcode", tmp_path / "box.json"
+    result = run("slice", design, "-o", out, "--colors", "3", "--stats", stats, "--jobs", "1")
+    assert result.exit_code == 0, result.output
+    assert "5 layers, 3 colors" in result.output
+    data = json.loads(stats.read_text())
+    for key in ("layers", "colors", "extruded_mm3", "extruded_mm3_by_color", "travel_mm", "state_changes",
+                "estimated_time_s", "extrusion_bbox", "warnings", "elapsed_s"):
+        assert key in data
+    assert data["layers"] == 5 and data["colors"] == 3
+    assert sum(float(v) for v in data["extruded_mm3_by_color"].values()) == pytest.approx(data["extruded_mm3"], rel=0.02)
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["--profile", "nonesuch"], "unknown profile"),
+        (["--set", "wals=2"], "did you mean 'walls'"),
+        (["--set", "layer_height=-1"], "layer_height"),
+        (["--profile", "toolchanger", "--colors", "8"], "tool"),
+        (["--set", "bed_x=30"], "bed"),
+        (["--layer-height", "1.5", "--set", "bead_width=2"], "max_cross_section_mm2"),
+        (["--layer-height", "2", "--set", "bead_width=2.5", "--set", "max_cross_section_mm2=20"], "no layers"),
+    ],
+)
+def test_bad_input_fails_cleanly_without_output(design, tmp_path, args, words):
+    out = tmp_path / "out.gcode"
+    result = run("slice", design, "-o", out, "--jobs", "1", *args)
+    assert result.exit_code == 2, result.output
+    assert words in result.output
+    assert "Traceback" not in result.output
+    assert not out.exists()
+    assert not list(tmp_path.glob(".out.gcode*")), "no temporary file is left behind"
+
+
+def test_unwritable_output_and_input_overwrite_are_refused(design, tmp_path):
+    result = run("slice", design, "-o", tmp_path / "missing" / "x.gcode")
+    assert result.exit_code == 2 and "does not exist" in result.output
+    result = run("slice", design, "-o", design)
+    assert result.exit_code == 2 and "input" in result.output
+    assert design.read_text() == BOX
+
+
+def test_existing_output_survives_a_failed_slice(design, tmp_path):
+    out = tmp_path / "keep.gcode"
+    out.write_text("old", encoding="utf-8")
+    result = run("slice", design, "-o", out, "--set", "bed_x=10")
+    assert result.exit_code == 2
+    assert out.read_text() == "old"
+
+
+def test_syntax_error_shows_file_line_column_and_caret(tmp_path):
+    path = tmp_path / "bad.vcad"
+    path.write_text('union() {\n  sphere(1;\n}\n', encoding="utf-8")
+    result = run("slice", path, "-o", tmp_path / "bad.gcode")
+    assert result.exit_code == 2
+    assert f"{path}:2:" in result.output and "^" in result.output
+
+
+def test_profiles_and_check(design):
+    result = run("profiles")
+    assert result.exit_code == 0
+    for name in ("marlin-mixing", "marlin-mixing-m163", "toolchanger", "foam-lwpla", "foam-tpu", "template-diw"):
+        assert name in result.output
+    result = run("check", design)
+    assert result.exit_code == 0, result.output
+    assert "blue" in result.output and "yellow" in result.output
+
+
+def test_verify_passes_our_output_and_flags_a_broken_file(design, tmp_path):
+    out = tmp_path / "box.gcode"
+    assert run("slice", design, "-o", out, "--jobs", "1").exit_code == 0
+    assert run("verify", out).exit_code == 0
+    broken = tmp_path / "broken.gcode"
+    broken.write_text(out.read_text() + "G1 X999 Y10 E1\n", encoding="utf-8")
+    result = run("verify", broken)
+    assert result.exit_code == 1 and "line" in result.output

@@ -1,0 +1,140 @@
+"""End to end: designs sliced to G-code, checked against the design they came from."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import shapely
+
+from fgslice.design import api
+from fgslice.machine.gcode_reader import read_gcode
+from fgslice.pipeline import slice_to_gcode
+from fgslice.settings import load_settings
+from fgslice.slicing.palette import Palette
+
+
+def _slice(design, tmp_path, profile=None, jobs=1, **overrides):
+    settings = load_settings(profile, {k: str(v) for k, v in overrides.items()})
+    out = tmp_path / "part.gcode"
+    result = slice_to_gcode(design, settings, out, jobs=jobs)
+    return settings, read_gcode(out), result.stats, out
+
+
+def _extruded_volume(program, settings) -> float:
+    filament_area = np.pi * settings.filament_diameter**2 / 4
+    printing = (program.e > 0) & (program.length > 0)
+    return float(program.e[printing].sum() * filament_area)
+
+
+def _read_header(path) -> dict[str, str]:
+    out = {}
+    with open(path, encoding="utf-8") as handle:
+        for line in handle:
+            if line.startswith("; ") and " = " in line:
+                key, _, value = line[2:].partition(" = ")
+                out.setdefault(key.strip(), value.strip())
+            if line.startswith(";LAYER_CHANGE"):
+                break
+    return out
+
+
+def _offset(path) -> np.ndarray:
+    return np.array([float(v) for v in _read_header(path)["placement_offset"].split(",")])
+
+
+GRADIENT_X = api.fgrade(["x/40 + 0.5", "0.5 - x/40"], ["blue", "yellow"], api.rectprism(40, 20, 2))
+
+
+def test_strategy2_box_volume_matches_the_part(tmp_path):
+    design = api.design(api.fgrade(["0.5", "0.5"], ["blue", "yellow"], api.rectprism(30, 20, 4)))
+    settings, program, stats, _ = _slice(design, tmp_path, colors=2, skirt_loops=0)
+    volume = _extruded_volume(program, settings)
+    assert volume == pytest.approx(30 * 20 * 4, rel=0.03)
+    assert stats["extruded_mm3"] == pytest.approx(volume, rel=1e-3)
+    assert stats["layers"] == 20 and len(program.layer_z) == 20
+    assert np.allclose(np.diff(program.layer_z), 0.2)
+
+
+def test_strategy2_cylinder_with_hole_volume(tmp_path):
+    ring = api.difference(api.cylinder(15, 3), api.cylinder(6, 3))
+    design = api.design(api.fgrade(["rho/15", "1 - rho/15"], ["blue", "yellow"], ring))
+    settings, program, _, _ = _slice(design, tmp_path, colors=3, skirt_loops=0)
+    expected = np.pi * (15**2 - 6**2) * 3
+    assert _extruded_volume(program, settings) == pytest.approx(expected, rel=0.03)
+
+
+@pytest.mark.parametrize(
+    "tree",
+    [
+        GRADIENT_X,
+        api.fgrade(["rho/15", "1 - rho/15"], ["blue", "yellow"], api.difference(api.cylinder(15, 1), api.cylinder(4, 1))),
+    ],
+    ids=["linear", "radial"],
+)
+def test_commanded_color_matches_the_design_at_every_segment(tmp_path, tree):
+    design = api.design(tree)
+    settings, program, _, out = _slice(design, tmp_path, colors=4, skirt_loops=0)
+    palette = Palette(2, 4)
+    offset = _offset(out)
+    moves = (program.e > 0) & (program.length > 0)
+    start, end = program.start[moves], program.end[moves]
+    mid = (start + end) / 2 - offset
+    mid[:, 2] -= settings.layer_height / 2
+    expected = palette.color_of(design.fractions(mid[:, 0], mid[:, 1], mid[:, 2]))
+    at_start = palette.color_of(design.fractions(*(start - offset - [0, 0, 0.1]).T))
+    at_end = palette.color_of(design.fractions(*(end - offset - [0, 0, 0.1]).T))
+    inside_one_bin = at_start == at_end
+    commanded = program.color_of_moves()[moves]
+    assert inside_one_bin.mean() > 0.8
+    assert np.array_equal(commanded[inside_one_bin], expected[inside_one_bin])
+    assert set(np.unique(commanded)) == set(np.unique(expected))
+
+
+def test_every_move_stays_on_the_bed(tmp_path):
+    settings, program, stats, _ = _slice(api.design(GRADIENT_X), tmp_path, colors=3, strategy=1, walls=2)
+    points = np.vstack([program.start, program.end])
+    assert points[:, 0].min() >= 0 and points[:, 0].max() <= settings.bed_x
+    assert points[:, 1].min() >= 0 and points[:, 1].max() <= settings.bed_y
+    assert points[:, 2].min() >= 0 and points[:, 2].max() <= settings.max_z
+    (x0, y0, _), (x1, y1, _) = stats["extrusion_bbox"]
+    part = shapely.box(x0, y0, x1, y1)
+    tower_paths = [r for r in program.roles if r == "Wipe tower"]
+    assert tower_paths, "strategy 1 with 3 colors purges on a tower"
+    assert part.area > 40 * 20
+
+
+def test_parallel_output_is_byte_identical(tmp_path, monkeypatch):
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000000")
+    design = api.design(GRADIENT_X)
+    settings = load_settings(None, {"colors": "4", "strategy": "1", "walls": "2"})
+    one, two = tmp_path / "one.gcode", tmp_path / "two.gcode"
+    slice_to_gcode(design, settings, one, jobs=1)
+    slice_to_gcode(design, settings, two, jobs=2)
+    assert one.read_bytes() == two.read_bytes()
+
+
+@pytest.mark.parametrize(
+    "profile, expected",
+    [
+        ("marlin-mixing", ["M165 A0.1250 B0.8750", "M165 A0.8750 B0.1250"]),
+        ("marlin-mixing-m163", ["M163 S0 P0.1250", "M163 S1 P0.8750", "M164 S0"]),
+        ("toolchanger", ["T0", "T3"]),
+        ("template-diw", ["M400", "M42 P4 S32", "M42 P4 S223"]),
+    ],
+)
+def test_each_dialect_writes_its_state_commands(tmp_path, profile, expected):
+    _, _, _, out = _slice(api.design(GRADIENT_X), tmp_path, profile=profile, colors=4)
+    lines = set(out.read_text().splitlines())
+    for command in expected:
+        assert command in lines, command
+
+
+def test_temperature_dialect_sets_temperature_and_flow(tmp_path):
+    settings, program, _, out = _slice(api.design(GRADIENT_X), tmp_path, profile="foam-lwpla", colors=2)
+    text = out.read_text()
+    # color 0 holds 25% blue (material A) -> 190 + 35 * 0.75 = 216.25 C, sent in whole degrees
+    t = 190 + 35 * 0.75
+    assert "M104 S216" in text.splitlines()
+    flow = 100 * (8.35479e-6 * t**3 - 5.37075e-3 * t**2 + 1.13374 * t - 77.814)
+    flows = [ev.values.get("S") for ev in program.flows]
+    assert any(abs(f - flow) <= 0.5 for f in flows)
