@@ -217,6 +217,11 @@ class Node:
         """Raw fractions ``(N, k)`` at 1-D points; ``ctx`` = enclosing fgrade's fractions."""
         return self.children[0].raw(x, y, z, ctx, columns)
 
+    @functools.cached_property
+    def coordinate_free(self) -> bool:
+        """Whether :meth:`raw` ignores the coordinates (then transforms need not map them)."""
+        return self.children[0].coordinate_free
+
 
 def sampled_section(node: Node, z: float, spacing: float) -> shapely.Geometry:
     """Outline of ``node`` at ``z`` by marching squares on its sdf at ``spacing`` mm."""
@@ -234,6 +239,8 @@ class Primitive(Node):
     def __init__(self, material: str | None = None, where: Where = NOWHERE) -> None:
         super().__init__((), where)
         self.material = material
+
+    coordinate_free = True
 
     def raw(self, x, y, z, ctx, columns: Columns) -> np.ndarray:
         if self.material is None and ctx is not None:
@@ -452,6 +459,10 @@ class Union(Node):
     def raw(self, x, y, z, ctx, columns):
         return _union_raw(self.children, x, y, z, ctx, columns)
 
+    @functools.cached_property
+    def coordinate_free(self) -> bool:
+        return len(self.children) == 1 and self.children[0].coordinate_free
+
 
 class Intersection(Node):
     """Intersection of the children (max of their sdfs); materials of the first child."""
@@ -541,7 +552,13 @@ class Affine(Node):
         )
 
     def raw(self, x, y, z, ctx, columns):
+        if self._body.coordinate_free:
+            return self._body.raw(x, y, z, ctx, columns)
         return self._body.raw(*self.local(x, y, z), ctx, columns)
+
+    @functools.cached_property
+    def coordinate_free(self) -> bool:
+        return self._body.coordinate_free
 
 
 class Translate(Affine):
@@ -635,6 +652,8 @@ class Fgrade(Node):
             out[np.arange(out.shape[0]), winner] = 1.0
         return out
 
+    coordinate_free = False
+
     def raw(self, x, y, z, ctx, columns):
         return _union_raw(self.children, x, y, z, self.own_fractions(x, y, z, columns), columns)
 
@@ -649,6 +668,31 @@ def walk(root: Node):
         node, depth = stack.pop()
         yield node, depth
         stack.extend((c, depth + 1) for c in reversed(node.children))
+
+
+def normalized(raw: np.ndarray) -> np.ndarray:
+    """Fractions from raw values ``(N, k)``: NaN -> 0, clamp to [0, 1], divide by the sum.
+
+    Rows summing to 0 become the first material.
+    """
+    f = np.clip(np.nan_to_num(raw, nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
+    total = f[:, 0].copy()
+    for j in range(1, f.shape[1]):  # column sums: faster than a reduction over a short axis
+        total += f[:, j]
+    empty = total <= 0
+    f[empty, 0] = 1.0
+    total[empty] = 1.0
+    f /= total[:, None]
+    return f
+
+
+CHUNK = 1 << 15
+"""Points evaluated at once: keeps numpy temporaries in cache instead of fresh pages."""
+
+
+def _chunks(n: int):
+    """Slices covering ``range(n)`` in blocks of :data:`CHUNK`."""
+    return [slice(i, min(i + CHUNK, n)) for i in range(0, n, CHUNK)]
 
 
 class NodeDesign(Design):
@@ -713,25 +757,30 @@ class NodeDesign(Design):
         return list(self._materials)
 
     def sdf(self, x, y, z) -> np.ndarray:
-        x, y, z = (np.asarray(v, dtype=float) for v in (x, y, z))
-        shape = np.broadcast_shapes(x.shape, y.shape, z.shape)
-        return np.broadcast_to(self.root.sdf(x, y, z), shape)
+        x, y, z = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (x, y, z)))
+        shape = x.shape
+        x, y, z = x.ravel(), y.ravel(), z.ravel()
+        out = np.empty(x.size)
+        for s in _chunks(x.size):
+            out[s] = self.root.sdf(x[s], y[s], z[s])
+        return out.reshape(shape)
+
+    def _per_chunk(self, x, y, z, normalize: bool) -> np.ndarray:
+        x, y, z = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (x, y, z)))
+        shape = x.shape
+        x, y, z = x.ravel(), y.ravel(), z.ravel()
+        out = np.empty((x.size, self.columns.k))
+        for s in _chunks(x.size):
+            raw = self.root.raw(x[s], y[s], z[s], None, self.columns)
+            out[s] = normalized(raw) if normalize else raw
+        return out.reshape(shape + (self.columns.k,))
 
     def raw_fractions(self, x, y, z) -> np.ndarray:
         """Raw (unclamped, unnormalized) fractions, shape ``broadcast + (k,)``."""
-        x, y, z = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (x, y, z)))
-        shape = x.shape
-        raw = self.root.raw(x.ravel(), y.ravel(), z.ravel(), None, self.columns)
-        return raw.reshape(shape + (self.columns.k,))
+        return self._per_chunk(x, y, z, normalize=False)
 
     def fractions(self, x, y, z) -> np.ndarray:
-        raw = self.raw_fractions(x, y, z)
-        f = np.clip(np.nan_to_num(raw, nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
-        total = f.sum(axis=-1, keepdims=True)
-        empty = total[..., 0] <= 0
-        f[empty, 0] = 1.0
-        total[empty] = 1.0
-        return f / total
+        return self._per_chunk(x, y, z, normalize=True)
 
     def bounds(self):
         lo, hi = self.root.bounds()

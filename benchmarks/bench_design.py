@@ -1,0 +1,56 @@
+"""Design evaluation speed on the example vase.
+
+Prints the time to evaluate the signed distance and the material fractions at 10^6
+points (target: 0.2 s together) and the time of 500 sections (one per 0.2 mm layer),
+each with its ratio to the target (below 1 is better than the target).
+
+Run: .venv/bin/python benchmarks/bench_design.py
+"""
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+from fgslice.design import load_design
+
+VASE = Path(__file__).resolve().parents[1] / "examples" / "vase.vcad"
+TARGET_FIELDS_S = 0.2
+N_POINTS = 1_000_000
+N_SECTIONS = 500
+
+
+def best_of(repeats, fn):
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return min(times)
+
+
+def main() -> None:
+    design = load_design(VASE)
+    (x0, y0, z0), (x1, y1, z1) = design.bounds()
+    rng = np.random.default_rng(0)
+    x = rng.uniform(x0, x1, N_POINTS)
+    y = rng.uniform(y0, y1, N_POINTS)
+    z = rng.uniform(z0, z1, N_POINTS)
+    t_sdf = best_of(3, lambda: design.sdf(x, y, z))
+    t_frac = best_of(3, lambda: design.fractions(x, y, z))
+    total = t_sdf + t_frac
+    print(f"vase sdf at {N_POINTS:,} points:       {t_sdf:.3f} s")
+    print(f"vase fractions at {N_POINTS:,} points: {t_frac:.3f} s")
+    print(f"total {total:.3f} s, target {TARGET_FIELDS_S} s, ratio {total / TARGET_FIELDS_S:.2f}")
+    heights = np.linspace(z0, z1, N_SECTIONS + 2)[1:-1]
+    start = time.perf_counter()
+    vertices = sum(len(p.exterior.coords) for h in heights for p in design.section(h).geoms)
+    t_sections = time.perf_counter() - start
+    print(
+        f"{N_SECTIONS} vase sections: {t_sections:.3f} s ({1000 * t_sections / N_SECTIONS:.2f} ms each, "
+        f"{vertices / N_SECTIONS:.0f} vertices each)"
+    )
+
+
+if __name__ == "__main__":
+    main()
