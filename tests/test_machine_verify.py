@@ -195,3 +195,13 @@ def test_format_faults_limits_the_listing():
     text = format_faults([Fault(i, "bad") for i in range(1, 80)], limit=10)
     assert text.splitlines()[0] == "79 faults:" and text.splitlines()[-1] == "  ... and 69 more"
     assert format_faults([]) == "no faults"
+
+
+def test_reader_numbers_equal_python_floats():
+    rng = np.random.default_rng(7)
+    words = [f"{v:.{d}f}" for v, d in zip(rng.uniform(-500, 500, 3000), rng.integers(0, 7, 3000))]
+    words += ["+3", ".5", "5.", "-0", "007.250"]
+    text = "M83\n" + "".join(f"G1 X{w} Y{w} E{w}\n" for w in words)
+    p = read_gcode(text)
+    expected = np.array([float(w) for w in words])
+    assert np.array_equal(p.e, expected) and np.array_equal(p.end[:, 0], expected) and p.faults == []

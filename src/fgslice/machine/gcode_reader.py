@@ -346,28 +346,37 @@ def _parse_numbers(padded: np.ndarray, begin: np.ndarray) -> tuple[np.ndarray, n
     """
     n = len(begin)
     mantissa = np.zeros(n)
-    decimals = np.zeros(n, dtype=np.int64)
     n_digits = np.zeros(n, dtype=np.int64)
     points = np.zeros(n, dtype=np.int64)
+    point_col = np.zeros(n, dtype=np.int64)
+    width = np.zeros(n, dtype=np.int64)
+    c = padded[begin]
+    negative = c == 45
     bad = np.zeros(n, dtype=bool)
-    ended = np.zeros(n, dtype=bool)
-    negative = padded[begin] == 45
     for k in range(_TOKEN_WIDTH + 1):
-        c = padded[begin + k]
-        ended |= _END_TABLE[c]
-        if k == _TOKEN_WIDTH or ended.all():
+        if k:
+            c = padded[begin + k]
+        ended = _END_TABLE[c] if k == 0 else ended | _END_TABLE[c]
+        if ended.all():
+            break
+        if k == _TOKEN_WIDTH:
             bad |= ~ended
             break
-        c = np.where(ended, np.uint8(0), c)
-        is_digit = (c >= 48) & (c <= 57)
-        is_point = c == 46
-        sign_ok = (c == 45) | (c == 43) if k == 0 else False
-        bad |= ~(is_digit | is_point | sign_ok | (c == 0))
-        mantissa = np.where(is_digit, mantissa * 10 + (c.astype(np.float64) - 48), mantissa)
-        decimals += is_digit & (points > 0)
+        live = ~ended
+        width += live
+        digit = c - np.uint8(48)
+        is_digit = (digit < 10) & live
+        is_point = (c == 46) & live
+        ok = is_digit | is_point | ended
+        if k == 0:
+            ok |= (c == 45) | (c == 43)
+        bad |= ~ok
+        mantissa = np.where(is_digit, mantissa * 10 + digit, mantissa)
         n_digits += is_digit
         points += is_point
+        point_col[is_point] = k
     bad |= (n_digits == 0) | (n_digits > 15) | (points > 1)
+    decimals = np.where(points > 0, width - 1 - point_col, 0)
     values = mantissa / 10.0**decimals
     return np.where(negative, -values, values), ~bad
 
