@@ -13,6 +13,7 @@ from fgslice.analysis.calibrate import (
     lookahead_advice,
     lookahead_from_measurement,
     lookahead_from_volume,
+    predicted_offsets,
     transition_offsets,
 )
 from fgslice.analysis.simulate import MeltModel, simulate_trace, trace_from_plans
@@ -134,3 +135,19 @@ def test_lookahead_advice_gives_the_option_line():
     assert text.splitlines()[-1] == "--set lookahead_mm=959.2"
     distance, text = lookahead_advice(settings, measured_error_mm=19.0)
     assert distance == 960.0 and "48 lines" in text and text.endswith("--set lookahead_mm=960.0")
+
+
+@pytest.mark.parametrize(
+    ("profile", "overrides", "expected_beads"),
+    [
+        ("marlin-mixing", {"mixing_share": "0"}, [68.5 / 0.0714 / 20.4] * 3),           # L / (L_y + w) lines late
+        ("marlin-mixing", {"mixing_share": "0", "lookahead_mm": "auto"}, [0.0] * 3),    # compensated
+        ("foam-lwpla", {}, [8 * math.log(2) * v / 20.4 for v in (20.0, 40.0, 40.0)]),   # tau ln 2 of printing
+    ],
+)
+def test_predicted_calibration_offsets(profile, overrides, expected_beads):
+    from fgslice.settings import load_settings
+
+    settings = load_settings(profile, overrides)
+    beads = predicted_offsets(settings) / settings.bead_width
+    assert np.all(np.abs(beads - np.array(expected_beads)) <= 1.0)

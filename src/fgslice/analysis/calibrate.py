@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fgslice.analysis.simulate import SimulationResult
+from fgslice.analysis.simulate import MeltModel, SimulationResult, deposit, trace_from_plans
 from fgslice.errors import SettingsError
 from fgslice.planning.plan import LayerPlan, SetState
 from fgslice.settings import Settings
@@ -183,19 +183,50 @@ def transition_offsets(result: SimulationResult, midpoint_x: float) -> np.ndarra
     makes it; negative: early, as too much look-ahead makes it); NaN for a layer that
     never crosses. Only segments of the part count.
     """
-    layers = np.unique(result.layer[result.part])
+    part = result.part
+    return _crossings(result.deposited[part, 0], result.start[part], result.end[part], result.layer[part], midpoint_x)
+
+
+def _crossings(fraction_a: np.ndarray, start: np.ndarray, end: np.ndarray, layer: np.ndarray, midpoint_x: float) -> np.ndarray:
+    """:func:`transition_offsets` on plain arrays of extrusion segments in printing order."""
+    layers = np.unique(layer)
     out = np.full(len(layers), np.nan)
-    for i, layer in enumerate(layers):
-        idx = np.flatnonzero(result.part & (result.layer == layer))
-        f = result.deposited[idx, 0]
-        above = f[0] >= 0.5
-        crossed = np.flatnonzero((f >= 0.5) != above)
+    for i, number in enumerate(layers):
+        idx = np.flatnonzero(layer == number)
+        f = fraction_a[idx]
+        crossed = np.flatnonzero((f >= 0.5) != (f[0] >= 0.5))
         if len(crossed) == 0:
             continue
-        direction = np.sign(result.end[idx[-1], 0] - result.start[idx[0], 0])
+        direction = np.sign(end[idx[-1], 0] - start[idx[0], 0])
         j = idx[crossed[0]]
-        out[i] = direction * ((result.start[j, 0] + result.end[j, 0]) / 2 - midpoint_x)
+        out[i] = direction * ((start[j, 0] + end[j, 0]) / 2 - midpoint_x)
     return out
+
+
+def predicted_offsets(
+    settings: Settings,
+    *,
+    melt_volume_mm3: float | None = None,
+    length_x: float = LENGTH_X,
+    length_y: float = LENGTH_Y,
+    layers: int = LAYERS,
+) -> np.ndarray:
+    """Where the calibration print's transition should appear, per layer, mm from the midpoint.
+
+    Simulates the calibration object (with the settings' look-ahead applied) through the
+    dialect's model (:mod:`fgslice.analysis.simulate`) without writing G-code; positive
+    values lie past the midpoint in the printing direction. A value near 0 means the
+    look-ahead compensates ``melt_volume_mm3`` (default ``settings.melt_volume_mm3``).
+    """
+    from fgslice.planning.lookahead import apply_lookahead
+
+    palette = calibration_palette(settings)
+    plans = calibration_plan(settings, palette.centers, length_x=length_x, length_y=length_y, layers=layers)
+    distance = settings.lookahead_distance
+    trace = trace_from_plans(apply_lookahead(plans, distance) if distance > 0 else plans, palette.centers, settings)
+    deposited = deposit(trace, MeltModel.from_settings(settings, melt_volume_mm3))
+    extruding = trace.volume > 0
+    return _crossings(deposited[:, 0], trace.start[extruding], trace.end[extruding], trace.layer[extruding], calibration_midpoint(settings))
 
 
 def write_calibration(out_path: str | Path, settings: Settings, *, length_x: float = LENGTH_X, length_y: float = LENGTH_Y, layers: int = LAYERS) -> dict:
