@@ -52,12 +52,19 @@ class CheckReport:
         return not self.errors
 
 
+MIN_PER_AXIS = 8
+"""Grid points along even the thinnest side, so thin plates are sampled through."""
+
+
 def _grid(bounds, samples: int):
+    """Cell-centred grid points over the box and the largest grid step (mm)."""
     lo, hi = np.asarray(bounds[0], dtype=float), np.asarray(bounds[1], dtype=float)
-    spacing = float(np.max(hi - lo)) / samples
-    axes = [lo[i] + (np.arange(max(1, int(np.ceil((hi[i] - lo[i]) / spacing)))) + 0.5) * spacing for i in range(3)]
+    extent = hi - lo
+    counts = np.maximum(MIN_PER_AXIS, np.ceil(extent / (extent.max() / samples))).astype(int)
+    steps = extent / counts
+    axes = [lo[i] + (np.arange(counts[i]) + 0.5) * steps[i] for i in range(3)]
     x, y, z = np.meshgrid(*axes, indexing="ij")
-    return x.ravel(), y.ravel(), z.ravel(), spacing
+    return x.ravel(), y.ravel(), z.ravel(), float(steps.max())
 
 
 def _share(mask: np.ndarray) -> str:
