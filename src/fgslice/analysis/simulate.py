@@ -35,7 +35,7 @@ from pathlib import Path as FilePath
 import numpy as np
 
 from fgslice.design.base import Design, Material
-from fgslice.errors import GcodeError, SettingsError
+from fgslice.errors import GcodeError, SettingsError, SliceError
 from fgslice.slicing.layers import Placement
 
 #: Per-interval decay exponent cap: beyond it the previous state weighs < 5e-18.
@@ -369,6 +369,9 @@ def trace_from_plans(plans, centers: np.ndarray, settings) -> SegmentTrace:
         plans: iterable of :class:`fgslice.planning.plan.LayerPlan`.
         centers: ``(N, k)`` palette centers (:attr:`Palette.centers`).
         settings: speeds and temperatures.
+
+    Raises:
+        SliceError: the plans hold no paths.
     """
     from fgslice.planning.plan import SetState
     from fgslice.toolpaths.paths import Role, bead_area
@@ -391,6 +394,8 @@ def trace_from_plans(plans, centers: np.ndarray, settings) -> SegmentTrace:
             extrusion = (bead_area(step.width, step.height), speed, color, step.role not in non_part, plan.index, plan.height)
             rows.append((xy, plan.z, extrusion))
             last = xy[-1]
+    if not rows:
+        raise SliceError("the plans hold no paths to simulate")
     counts = np.array([len(r[0]) - 1 for r in rows])
     start = np.concatenate([np.column_stack([r[0][:-1], np.full(len(r[0]) - 1, r[1])]) for r in rows])
     end = np.concatenate([np.column_stack([r[0][1:], np.full(len(r[0]) - 1, r[1])]) for r in rows])
