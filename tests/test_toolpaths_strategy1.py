@@ -8,6 +8,7 @@ from fgslice.settings import Settings
 from fgslice.slicing.layers import LayerRegions
 from fgslice.slicing.palette import Palette
 from fgslice.toolpaths import strategy1
+from fgslice.toolpaths.strategy1 import summarize_short_pieces
 from fgslice.toolpaths.paths import Role, bead_area
 
 W, H = 0.4, 0.2
@@ -45,9 +46,9 @@ def point_at(path, fraction):
 
 def test_piece_colors_match_field_and_cuts_sit_on_crossings():
     settings = Settings(strategy=1, walls=3, infill_density=20, min_segment_mm=0)
-    (lp, warnings), palette = run(settings, colors=6)
+    (lp, short), palette = run(settings, colors=6)
     field = LinearField()
-    assert warnings == []
+    assert short is None
     long = [p for p in lp.paths if p.length >= 2 * W]
     mids = np.array([point_at(p, 0.5) for p in long])
     colors = palette.color_of(field.fractions(mids, 0))
@@ -118,14 +119,14 @@ def test_sparse_infill_density():
 
 def test_short_piece_warning_suggests_a_smaller_palette():
     settings = Settings(strategy=1, walls=2, infill_density=0, min_segment_mm=5)
-    (_, warnings), _ = run(settings, colors=4)
-    assert warnings == []
-    (_, warnings), _ = run(settings, colors=32)
-    assert len(warnings) == 1
-    suggested = int(warnings[0].split("at most ")[1].split()[0])
+    (_, short), _ = run(settings, colors=4)
+    assert short is None
+    (_, short), _ = run(settings, colors=32)
+    assert short is not None and short.shortest_mm < 5 and 0 < short.short <= short.total
     # bands of 60/N mm; pieces along x-running walls are ~60/N long: N <= 12 keeps 5 mm
-    assert 6 <= suggested <= 12
-    (_, warnings), _ = run(settings, colors=suggested)
-    if warnings:  # only a few grazing pieces (around the hole) may stay short
-        short, total = (int(v) for v in warnings[0].split(": ")[1].split(" color")[0].split(" of "))
-        assert short <= 0.15 * total
+    assert 6 <= short.suggestion <= 12
+    (message,) = summarize_short_pieces([short, short], 10, 5)
+    assert f"at most {short.suggestion} colors" in message and "on 2 of 10 layers" in message
+    (_, short), _ = run(settings, colors=short.suggestion)
+    if short:  # only a few grazing pieces (around the hole) may stay short
+        assert short.short <= 0.15 * short.total

@@ -50,6 +50,10 @@ from fgslice.toolpaths.paths import Path, Role
 from fgslice.toolpaths.skirt import skirt_paths
 
 
+COLOR_SAMPLE_MM = 2.0
+"""Grid step of the field samples that bound how many colors a layer holds, mm."""
+
+
 @dataclass
 class SliceJob:
     """Everything a per-layer worker needs (read-only once built)."""
@@ -68,7 +72,7 @@ class LayerResult:
     """What one layer's worker returns."""
 
     plan: LayerPlan
-    warnings: list[str]
+    short_pieces: strategy1.ShortPieces | None
     uncovered_mm2: float
     colors: int
 
@@ -96,19 +100,19 @@ def _layer_task(job: SliceJob, index: int) -> LayerResult:
     if s.strategy == 2:
         regions = slice_layer(job.design, job.placement, job.palette, i, z_top, height, s)
         paths = strategy2.layer_paths(regions, s)
-        warnings: list[str] = []
+        short = None
     else:
         outline = job.outlines[index]
         regions = LayerRegions(index=i, z=z_top, height=height, outline=outline, faces=())
         below = job.outlines[max(0, index - s.bottom_layers) : index][::-1]
         above = job.outlines[index + 1 : index + 1 + s.top_layers]
         field_ = BedField(job.design, job.placement)
-        paths, warnings = strategy1.layer_paths(regions, below, above, field_, job.palette, s)
+        paths, short = strategy1.layer_paths(regions, below, above, field_, job.palette, s)
     if index == 0:
         paths.paths = skirt_paths(regions.outline, s) + paths.paths
     colors = len({p.color for p in paths.paths if p.color >= 0})
     plan = order_layer(paths, job.palette.order_for_layer(i), job.start_xy, s.feature_order)
-    return LayerResult(plan=plan, warnings=warnings, uncovered_mm2=paths.uncovered_mm2, colors=colors)
+    return LayerResult(plan=plan, short_pieces=short, uncovered_mm2=paths.uncovered_mm2, colors=colors)
 
 
 def _part_footprint(job: SliceJob) -> shapely.Geometry:
@@ -128,19 +132,18 @@ def _max_colors_per_layer(job: SliceJob, jobs: int, scheduler: str | None) -> in
 
 
 def _colors_in_outline(job: SliceJob, index: int) -> int:
-    """Colors spanned by the field over a layer's outline (all bins between min and max)."""
+    """Colors a layer's outline spans: all bins between the lowest and highest sampled, one
+    more on each side for what a coarse sampling (:data:`COLOR_SAMPLE_MM`) can miss."""
     outline = job.outlines[index]
     if outline.is_empty:
         return 0
     x0, y0, x1, y1 = outline.bounds
-    step = job.settings.bead_width
-    xs, ys = np.meshgrid(np.arange(x0, x1 + step, step), np.arange(y0, y1 + step, step))
+    xs, ys = np.meshgrid(np.arange(x0, x1 + COLOR_SAMPLE_MM, COLOR_SAMPLE_MM), np.arange(y0, y1 + COLOR_SAMPLE_MM, COLOR_SAMPLE_MM))
     pts = np.column_stack([xs.ravel(), ys.ravel()])
-    grown = outline.buffer(step)
-    pts = np.vstack([pts[shapely.contains_xy(grown, pts[:, 0], pts[:, 1])], shapely.get_coordinates(outline)])
+    pts = np.vstack([pts[shapely.contains_xy(outline, pts[:, 0], pts[:, 1])], shapely.get_coordinates(outline)])
     z = job.layers[index][1] - job.layers[index][2] / 2
     colors = job.palette.color_of(BedField(job.design, job.placement).fractions(pts, z))
-    return int(colors.max() - colors.min() + 1)
+    return int(min(colors.max() + 1, job.palette.size - 1) - max(colors.min() - 1, 0) + 1)
 
 
 def _speed_of(settings: Settings) -> Callable[[Path], float]:
@@ -201,13 +204,14 @@ def slice_to_gcode(
             tower = PurgeTower.plan(_part_footprint(job), settings, max(changes, 1), len(layers))
             job.start_xy = np.array([(tower.x0 + tower.x1) / 2, (tower.y0 + tower.y1) / 2])
 
-    warnings: list[str] = []
+    short_records: list[strategy1.ShortPieces] = []
     uncovered = [0.0]
     total = len(layers)
 
     def plans():
         for done, result in enumerate(map_ordered(_layer_task, job, range(total), jobs=jobs, scheduler=scheduler), 1):
-            warnings.extend(result.warnings)
+            if result.short_pieces:
+                short_records.append(result.short_pieces)
             uncovered[0] += result.uncovered_mm2
             if progress:
                 progress(done, total)
@@ -244,7 +248,9 @@ def slice_to_gcode(
                 )
 
     stats.setdefault("warnings", [])
-    stats["warnings"] = list(stats["warnings"]) + _dedupe(warnings)
+    stats["warnings"] = list(stats["warnings"]) + strategy1.summarize_short_pieces(
+        short_records, total, settings.min_segment_mm
+    )
     stats.update(
         {
             "layers": total,
@@ -269,6 +275,3 @@ def _build_time() -> datetime | None:
     return datetime.fromtimestamp(int(epoch), tz=timezone.utc) if epoch.isdigit() else None
 
 
-def _dedupe(items: list[str]) -> list[str]:
-    """Keep the first occurrence of each message, in order."""
-    return list(dict.fromkeys(items))

@@ -40,8 +40,8 @@ def layer_paths(
     field,
     palette,
     settings: Settings,
-) -> tuple[LayerPaths, list[str]]:
-    """Toolpaths of one layer, cut into colors, and warnings (short pieces).
+) -> tuple[LayerPaths, "ShortPieces | None"]:
+    """Toolpaths of one layer, cut into colors, and its short-piece record (or None).
 
     Args:
         regions: the layer (only ``outline`` is used for geometry).
@@ -59,7 +59,7 @@ def layer_paths(
     out = LayerPaths(regions.index, regions.z, regions.height)
     out.paths = simplify_paths(cut.paths, settings.gcode_resolution)
     out.uncovered_mm2 = uncovered_area(regions.outline, w)
-    return out, short_piece_warnings(cut.bounded_lengths, palette.size, settings.min_segment_mm, regions.index)
+    return out, short_pieces(cut.bounded_lengths, palette.size, settings.min_segment_mm, regions.index)
 
 
 @dataclass(frozen=True)
@@ -335,19 +335,48 @@ def _slice(verts: np.ndarray, arc: np.ndarray, s0: float, s1: float, total: floa
     return np.vstack([x0, verts[inside], x1])
 
 
-def short_piece_warnings(bounded: np.ndarray, palette_size: int, min_segment_mm: float, layer_index: int) -> list[str]:
-    """A warning when color pieces are shorter than ``min_segment_mm``.
+@dataclass(frozen=True)
+class ShortPieces:
+    """Color pieces of one layer shorter than ``min_segment_mm``.
+
+    Attributes:
+        layer: layer index.
+        short: how many pieces cut at both ends are shorter than ``min_segment_mm``.
+        total: how many pieces are cut at both ends.
+        shortest_mm: the shortest of them, mm.
+        suggestion: the largest palette size expected to keep them long enough.
+    """
+
+    layer: int
+    short: int
+    total: int
+    shortest_mm: float
+    suggestion: int
+
+
+def short_pieces(bounded: np.ndarray, palette_size: int, min_segment_mm: float, layer_index: int) -> ShortPieces | None:
+    """The layer's short-piece record, or None when every piece is long enough.
 
     Pieces cut at both ends shrink roughly as ``1 / N`` with the palette size ``N``, so
     a palette of ``N * L_q / min_segment_mm`` colors keeps all but the shortest
     :data:`WARN_QUANTILE` of them long enough (``L_q`` that quantile of their lengths).
     """
     if len(bounded) == 0 or min_segment_mm <= 0 or bounded.min() >= min_segment_mm:
-        return []
-    short = int(np.sum(bounded < min_segment_mm))
+        return None
     suggestion = max(1, int(palette_size * np.quantile(bounded, WARN_QUANTILE) / min_segment_mm))
+    return ShortPieces(layer_index, int(np.sum(bounded < min_segment_mm)), len(bounded), float(bounded.min()), suggestion)
+
+
+def summarize_short_pieces(records: list[ShortPieces], layers: int, min_segment_mm: float) -> list[str]:
+    """One warning for the whole print from the layers' short-piece records (none if empty)."""
+    if not records:
+        return []
+    short = sum(r.short for r in records)
+    total = sum(r.total for r in records)
+    worst = min(records, key=lambda r: r.shortest_mm)
+    suggestion = min(r.suggestion for r in records)
     return [
-        f"layer {layer_index}: {short} of {len(bounded)} color pieces are shorter than "
-        f"min_segment_mm = {min_segment_mm:g} mm (shortest {bounded.min():.2f} mm); a palette of "
-        f"at most {suggestion} colors would keep them long enough"
+        f"{short} of {total} color pieces on {len(records)} of {layers} layers are shorter than "
+        f"min_segment_mm = {min_segment_mm:g} mm (shortest {worst.shortest_mm:.2f} mm, layer {worst.layer}); "
+        f"a palette of at most {suggestion} colors would keep them long enough"
     ]
