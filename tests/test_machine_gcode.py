@@ -208,3 +208,16 @@ def test_state_change_before_a_degenerate_path_is_kept():
     assert m1 < second[0] < m3
     assert stats["state_changes"] == 3 and stats["warnings"] == ["1 paths shorter than 0.001 mm were not written"]
     assert stats["extruded_mm3_by_color"][1] == pytest.approx(20 * bead_area(0.4, 0.2), rel=1e-4)
+
+
+def test_thumbnail_block_prusaslicer_format():
+    import base64
+
+    block = thumbnail_block(PNG, 16, 16).splitlines()
+    encoded = base64.b64encode(PNG).decode()
+    assert block[0] == f"; thumbnail begin 16x16 {len(encoded)}" and block[-1] == "; thumbnail end"
+    body = block[1:-1]
+    assert all(line.startswith("; ") and len(line) <= 80 for line in body)
+    assert "".join(line[2:] for line in body) == encoded
+    with pytest.raises(ValueError, match="not a PNG"):
+        thumbnail_block(b"GIF89a", 16, 16)
