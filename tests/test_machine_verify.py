@@ -104,6 +104,8 @@ def test_reader_reads_files_and_rejects_non_gcode(tmp_path):
         read_gcode("M104 S200\n; just a comment\nG28\nG1 F1200\n")
     with pytest.raises(GcodeError, match="cannot read"):
         read_gcode(tmp_path)
+    with pytest.raises(GcodeError, match="not found"):
+        read_gcode(str(tmp_path / "missing.gcode"))
 
 
 def test_reader_records_garbage_numbers_as_faults():

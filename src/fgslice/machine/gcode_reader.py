@@ -139,6 +139,8 @@ def _load_bytes(path_or_text: str | os.PathLike | bytes) -> tuple[bytes, str | N
             raise GcodeError(f"cannot read G-code: {exc.strerror}", file=name) from None
     elif isinstance(path_or_text, bytes):
         data = path_or_text
+    elif "\n" not in path_or_text and Path(path_or_text).suffix.lower() in (".gcode", ".gco", ".g", ".nc"):
+        raise GcodeError("G-code file not found", file=path_or_text)
     else:
         data = str(path_or_text).encode("utf-8", errors="replace")
     if b"\x00" in data[:65536]:
