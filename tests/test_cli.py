@@ -100,3 +100,27 @@ def test_verify_passes_our_output_and_flags_a_broken_file(design, tmp_path):
     broken.write_text(out.read_text() + "G1 X999 Y10 E1\n", encoding="utf-8")
     result = run("verify", broken)
     assert result.exit_code == 1 and "line" in result.output
+
+
+def test_simulate_reports_fidelity_and_writes_stats_and_png(design, tmp_path):
+    out = tmp_path / "box.gcode"
+    assert run("slice", design, "-o", out, "--colors", "4", "--jobs", "1").exit_code == 0
+    stats, png = tmp_path / "sim.json", tmp_path / "sim.png"
+    result = run("simulate", out, "--design", design, "--stats", stats, "--png", png)
+    assert result.exit_code == 0, result.output
+    data = json.loads(stats.read_text())
+    assert 0 <= data["mean_error"] <= data["p95_error"] <= 1
+    assert data["palette_size"] == 4
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_calibrate_lookahead_from_measurement_and_volume(tmp_path):
+    result = run("calibrate", "lookahead", "--measured-error", "19", "--segment-length", "20")
+    assert result.exit_code == 0
+    assert result.output.strip().splitlines()[-1] == "--set lookahead_mm=960.0"  # ceil(19 / 0.4) * 20
+    result = run("calibrate", "lookahead", "--melt-volume", "68.5")
+    assert "--set lookahead_mm=959.2" in result.output  # 68.5 / (0.2 * 0.2 + pi 0.2^2 / 4)
+    out = tmp_path / "cal.gcode"
+    result = run("calibrate", "lookahead", "-o", out)
+    assert result.exit_code == 0 and out.exists()
+    assert run("verify", out).exit_code == 0

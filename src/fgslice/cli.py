@@ -175,5 +175,79 @@ def verify_command(gcode, profile, sets):
     click.echo(f"{gcode}: ok")
 
 
+@main.command("simulate")
+@click.argument("gcode", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--design", "design_path", required=True, type=click.Path(dir_okay=False, path_type=Path), help="The design the G-code was sliced from.")
+@click.option("--materials", type=click.Path(dir_okay=False, path_type=Path), help="Material library JSON.")
+@click.option("--profile", help="Machine profile (default: the settings recorded in the G-code).")
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="Override any setting (e.g. tau_s, mixing_share).")
+@click.option("--melt-volume", type=float, help="Melt chamber volume V_melt, mm^3 (default: the profile's).")
+@click.option("--colors", type=int, help="Palette size for the half-bin metric (default: from the G-code).")
+@click.option("--stats", "stats_path", type=click.Path(dir_okay=False, path_type=Path), help="Write the results as JSON.")
+@click.option("--png", "png_path", type=click.Path(dir_okay=False, path_type=Path), help="Draw the composition error over one layer.")
+@click.option("--layer", type=int, help="Layer for --png (default: the worst).")
+def simulate_command(gcode, design_path, materials, profile, sets, melt_volume, colors, stats_path, png_path, layer):
+    """Predict the composition GCODE really deposits and compare it with DESIGN."""
+    from fgslice.analysis.fidelity import fidelity, plot_layer_error, simulation_stats
+    from fgslice.analysis.simulate import simulate, simulation_settings
+    from fgslice.design import load_design
+    from fgslice.output import check_writable
+    from fgslice.settings import parse_overrides
+
+    for path in (stats_path, png_path):
+        if path:
+            check_writable(path, inputs=(gcode, design_path))
+    settings = simulation_settings(gcode, profile, parse_overrides(sets))
+    design = load_design(design_path, materials)
+    result = simulate(gcode, design, None, settings, melt_volume_mm3=melt_volume, palette_size=colors)
+    report = fidelity(result, colors)
+    stats = simulation_stats(result, report)
+    if stats_path:
+        _write_json(stats_path, stats)
+    half_bin = "n/a" if report.within_half_bin is None else f"{100 * report.within_half_bin:.1f}%"
+    click.echo(
+        f"{gcode}: {stats['model']} model, V_melt {stats['melt_volume_mm3']:g} mm3; composition error mean "
+        f"{report.mean_error:.4f}, p95 {report.p95_error:.4f}; within half a bin {half_bin}; "
+        f"CIEDE2000 mean {report.mean_delta_e:.2f}, p95 {report.p95_delta_e:.2f}"
+    )
+    if png_path:
+        drawn = plot_layer_error(result, png_path, layer)
+        click.echo(f"{png_path}: composition error of layer {drawn}")
+
+
+@main.group("calibrate")
+def calibrate_group():
+    """Calibration prints and calculators."""
+
+
+@calibrate_group.command("lookahead")
+@click.option("--profile", help="Machine profile.")
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="Override any setting.")
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), help="Write the calibration object's G-code here.")
+@click.option("--measured-error", type=float, help="Distance e_x (mm) between the object's midpoint and where the color change appeared.")
+@click.option("--segment-length", type=float, default=20.0, show_default=True, help="Length L_y of one serpentine line, mm.")
+@click.option("--bead-width", type=float, help="Bead width w, mm (default: the profile's).")
+@click.option("--melt-volume", type=float, help="Known melt chamber volume V_melt, mm^3.")
+def calibrate_lookahead(profile, sets, output, measured_error, segment_length, bead_width, melt_volume):
+    """Print Appendix A's calibration object (-o) or compute the look-ahead distance."""
+    from fgslice.analysis.calibrate import lookahead_advice, write_calibration
+    from fgslice.output import check_writable
+
+    settings = _settings(profile, sets, {"bead_width": bead_width})
+    if output:
+        check_writable(output)
+        stats = write_calibration(output, settings, length_y=segment_length)
+        click.echo(
+            f"{output}: calibration object, {stats['layers']} layers, the state changes at the midpoint of "
+            f"each layer; measure e_x and run: fgslice calibrate lookahead --measured-error E_X "
+            f"--segment-length {segment_length:g}"
+        )
+        return
+    _, text = lookahead_advice(
+        settings, measured_error_mm=measured_error, melt_volume_mm3=melt_volume, line_length_mm=segment_length
+    )
+    click.echo(text)
+
+
 if __name__ == "__main__":
     main()
