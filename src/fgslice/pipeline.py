@@ -31,6 +31,7 @@ import shapely
 from fgslice.design.base import Design
 from fgslice.errors import SliceError
 from fgslice.executor import default_jobs, map_ordered
+from fgslice.guards import check_resources
 from fgslice.machine.dialects import make_dialect
 from fgslice.machine.gcode import GcodeWriter
 from fgslice.machine.verify import format_faults, verify_gcode
@@ -193,6 +194,7 @@ def slice_to_gcode(
     dialect = make_dialect(settings, palette)
     placement = place_design(design, settings)
     layers = layer_heights(design, settings)
+    check_resources(design, settings, len(layers))
     bed_center = np.array([settings.bed_x / 2, settings.bed_y / 2])
     job = SliceJob(design, settings, palette, placement, layers, bed_center)
 
