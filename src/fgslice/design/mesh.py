@@ -1,0 +1,563 @@
+"""Triangle meshes as geometry: loading, exact planar sections and signed distance.
+
+Everything is in millimetres in the mesh file's own frame (no re-centering here; a
+design node places the mesh).
+
+Sections are exact: every triangle crossing the plane contributes the segment between
+the two points where the plane cuts its edges. Conventions and robustness rules:
+
+* A vertex lying exactly on the plane counts as *above* it. This is a symbolic
+  perturbation (the plane moved down by an infinitesimal), applied identically to every
+  triangle sharing the vertex, so no segment is lost or doubled.
+* Segment ends are identified by the unique mesh edge they lie on; segments are stitched
+  into loops through those ids (two segments per edge on a manifold mesh). At a
+  non-manifold edge (more than two faces) the segments are paired in order of their
+  index. Ends left open (holes in a non-watertight mesh) are joined to the nearest other
+  open end of the same plane when both are each other's nearest and closer than
+  ``gap_tolerance``; chains still open after that are closed directly.
+* Loops with fewer than three points or (almost) zero area are dropped. The region is
+  built with even-odd semantics: a loop enclosed by an odd number of others is a hole
+  of the innermost loop around it. An invalid result (self-intersecting or overlapping
+  shells) goes through ``shapely.make_valid`` and is reduced to its polygons.
+* Outer rings are counter-clockwise, holes clockwise.
+
+The signed distance (negative inside) is the exact distance to the nearest triangle
+with a sign from an inside test that tolerates holes: the parity of crossings of three
+rays (+x, +y, +z) from the point, decided by majority. On a watertight mesh the three
+agree; a hole smaller than the part fools at most the rays that pass through it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+import shapely
+import trimesh
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from fgslice.errors import MeshError
+
+SUPPORTED_FORMATS = {".stl": "stl", ".3mf": "3mf", ".obj": "obj"}
+
+_MIN_LOOP_AREA = 1e-10
+"""Loops with an absolute area below this (mm^2) are degenerate and dropped."""
+
+_MAX_PAIRS_PER_BATCH = 2_000_000
+"""Upper bound on (plane, triangle) pairs processed at once by :meth:`sections`."""
+
+_SDF_CHUNK = 8192
+"""Query points processed at once by :meth:`MeshGeometry.sdf` (bounds memory)."""
+
+
+def load_mesh(path: str | Path, *, gap_tolerance: float = 0.25) -> MeshGeometry:
+    """Read an STL (binary or ASCII), 3MF or OBJ file into a :class:`MeshGeometry`.
+
+    All bodies of a 3MF or OBJ scene are concatenated into one mesh; coincident
+    vertices are merged. ``gap_tolerance`` (mm) is the largest hole gap a section
+    bridges (see the module notes).
+
+    Raises:
+        MeshError: the file is missing, of an unsupported type, unreadable or corrupt,
+            holds no triangles, or has non-finite vertex coordinates.
+    """
+    path = Path(path)
+    file_type = SUPPORTED_FORMATS.get(path.suffix.lower())
+    if file_type is None:
+        raise MeshError(
+            f"unsupported mesh file type '{path.suffix or path.name}'",
+            file=path,
+            hint="use an .stl, .3mf or .obj file",
+        )
+    if not path.is_file():
+        raise MeshError("mesh file not found", file=path, hint="check the path (relative paths start at the design file's folder)")
+    try:
+        with path.open("rb") as stream:
+            loaded = trimesh.load(stream, file_type=file_type, force="mesh", process=False)
+    except Exception as exc:  # trimesh raises many unrelated types for corrupt input
+        raise MeshError(
+            f"cannot read the {file_type.upper()} mesh: {exc}",
+            file=path,
+            hint="the file may be truncated or not a mesh; re-export it from your CAD program",
+        ) from exc
+    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
+        raise MeshError(
+            "the mesh holds no triangles",
+            file=path,
+            hint="export the bodies as a triangle mesh (not only points, lines or an empty scene)",
+        )
+    vertices = np.asarray(loaded.vertices, dtype=float)
+    if not np.isfinite(vertices).all():
+        bad = int(np.flatnonzero(~np.isfinite(vertices).all(axis=1))[0])
+        raise MeshError(
+            f"vertex {bad} has a non-finite coordinate (NaN or infinity)",
+            file=path,
+            hint="repair the mesh (e.g. with your CAD program's mesh repair) and export it again",
+        )
+    loaded.merge_vertices()
+    return MeshGeometry(loaded, path=path, gap_tolerance=gap_tolerance)
+
+
+class MeshGeometry:
+    """A triangle mesh with exact sections and a signed distance (mm, file frame).
+
+    Attributes:
+        path: the file the mesh was read from (None when built in memory).
+        gap_tolerance: the largest gap (mm) between open chain ends a section bridges.
+    """
+
+    def __init__(self, mesh: trimesh.Trimesh, *, path: str | Path | None = None, gap_tolerance: float = 0.25):
+        self.path = Path(path) if path is not None else None
+        self.gap_tolerance = float(gap_tolerance)
+        self._mesh = mesh
+        self._vertices = np.asarray(mesh.vertices, dtype=float)
+        self._faces = np.asarray(mesh.faces, dtype=np.int64)
+        self._edges = np.asarray(mesh.edges_unique, dtype=np.int64)
+        # trimesh orders a face's edges (v0, v1), (v1, v2), (v2, v0)
+        self._face_edges = np.asarray(mesh.faces_unique_edges, dtype=np.int64)
+        face_z = self._vertices[self._faces, 2]
+        self._face_zmin = face_z.min(axis=1)
+        self._face_zmax = face_z.max(axis=1)
+
+    @property
+    def triangle_count(self) -> int:
+        """Number of triangles."""
+        return len(self._faces)
+
+    @cached_property
+    def watertight(self) -> bool:
+        """True when every edge is shared by exactly two consistently wound faces."""
+        return bool(self._mesh.is_watertight)
+
+    def bounds(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """Axis-aligned bounding box ``((minx, miny, minz), (maxx, maxy, maxz))`` in mm."""
+        lo = self._vertices.min(axis=0)
+        hi = self._vertices.max(axis=0)
+        return (tuple(float(v) for v in lo), tuple(float(v) for v in hi))
+
+    def section(self, z: float) -> shapely.MultiPolygon:
+        """The cross-section at height ``z`` (mm), valid; empty outside the mesh."""
+        return self.sections([z])[0]
+
+    def sections(self, zs: Sequence[float] | np.ndarray) -> list[shapely.MultiPolygon]:
+        """Cross-sections at every height of ``zs`` (any order), computed together."""
+        zs = np.asarray(zs, dtype=float).ravel()
+        order = np.argsort(zs, kind="stable")
+        z_sorted = zs[order]
+        first = np.searchsorted(z_sorted, self._face_zmin, side="right")
+        stop = np.searchsorted(z_sorted, self._face_zmax, side="right")
+        pairs_per_plane = np.cumsum(np.bincount(first, minlength=len(zs) + 1) - np.bincount(stop, minlength=len(zs) + 1))[:-1]
+        result = np.empty(len(zs), dtype=object)
+        begin = 0
+        while begin < len(zs):
+            end = begin + 1
+            total = int(pairs_per_plane[begin])
+            while end < len(zs) and total + pairs_per_plane[end] <= _MAX_PAIRS_PER_BATCH:
+                total += int(pairs_per_plane[end])
+                end += 1
+            lo = np.clip(first, begin, end)
+            hi = np.clip(stop, begin, end)
+            result[order[begin:end]] = self._section_batch(z_sorted, lo, hi, begin, end)
+            begin = end
+        return list(result)
+
+    def _section_batch(self, z_sorted, lo, hi, begin, end) -> np.ndarray:
+        """Sections of planes ``begin..end-1`` of ``z_sorted``; face f crosses planes lo[f]..hi[f]-1."""
+        counts = hi - lo
+        face = np.repeat(np.arange(len(counts)), counts)
+        plane = np.repeat(lo, counts) + _ranks_within_runs(counts)
+        segments = _plane_segments(self._vertices, self._faces, self._edges, self._face_edges, face, z_sorted[plane])
+        node_ids, points = segments
+        node_ids = node_ids + (plane[:, None] - begin) * len(self._edges)
+        rings, ring_plane = _stitch(node_ids, points, plane - begin, self.gap_tolerance)
+        return _assemble(rings, ring_plane, end - begin)
+
+    def sdf(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """Signed distance (mm) to the surface, negative inside; shape of the broadcast."""
+        x, y, z = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float), np.asarray(z, float))
+        points = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
+        out = np.empty(len(points))
+        for start in range(0, len(points), _SDF_CHUNK):
+            chunk = points[start : start + _SDF_CHUNK]
+            distance = self._distance.query(chunk)
+            inside = sum(counter.odd_crossings(chunk) for counter in self._ray_counters) >= 2
+            out[start : start + _SDF_CHUNK] = np.where(inside, -distance, distance)
+        return out.reshape(x.shape)
+
+    @cached_property
+    def _distance(self) -> _TriangleDistance:
+        return _TriangleDistance(self._vertices[self._faces])
+
+    @cached_property
+    def _ray_counters(self) -> tuple[_RayCrossings, ...]:
+        triangles = self._vertices[self._faces]
+        return tuple(_RayCrossings(triangles, axis) for axis in range(3))
+
+
+def _ranks_within_runs(counts: np.ndarray) -> np.ndarray:
+    """0, 1, ..., counts[i]-1 for each i, concatenated."""
+    total = int(counts.sum())
+    starts = np.cumsum(counts) - counts
+    return np.arange(total) - np.repeat(starts, counts)
+
+
+def _plane_segments(vertices, faces, edges, face_edges, face, z):
+    """Segments cut by planes at heights ``z`` from triangles ``face`` (one plane each).
+
+    Returns ``(edge_ids, points)``: shapes (M, 2) and (M, 2, 2) — for both ends of each
+    segment, the unique edge it lies on and its XY position. The position is computed
+    from the edge's canonical vertex order, so both faces of an edge agree bit for bit.
+    """
+    above = vertices[faces[face], 2] >= z[:, None]
+    crossing = above != np.roll(above, -1, axis=1)
+    which = np.nonzero(crossing)[1].reshape(-1, 2)
+    edge_ids = face_edges[face[:, None], which]
+    ends = edges[edge_ids]
+    a = vertices[ends[..., 0]]
+    b = vertices[ends[..., 1]]
+    t = (z[:, None] - a[..., 2]) / (b[..., 2] - a[..., 2])
+    points = a[..., :2] + t[..., None] * (b[..., :2] - a[..., :2])
+    return edge_ids, points
+
+
+def _stitch(node_ids: np.ndarray, points: np.ndarray, plane: np.ndarray, gap_tolerance: float):
+    """Order segments into rings.
+
+    ``node_ids`` (M, 2) identify each segment end (equal ids = same point), ``points``
+    (M, 2, 2) are their positions, ``plane`` (M,) their plane. Ends are handled as
+    half-ends ``h = 2 * segment + end``; a walk enters a segment at ``h``, leaves at
+    ``h ^ 1`` and continues at that end's mate. Returns ``(rings, ring_plane)`` where
+    ``rings = (ring_index, coords, ring_size)``: the ring of each point (ascending),
+    the (P, 2) points in ring order and the number of points of each ring.
+    """
+    n_half = node_ids.size
+    nodes = node_ids.ravel()
+    xy = points.reshape(-1, 2)
+    half_plane = np.repeat(plane, 2)
+    mate = _pair_equal(nodes)
+    _pair_open_ends(mate, xy, half_plane, gap_tolerance)
+
+    half = np.arange(n_half)
+    succ = mate[half ^ 1]
+    linked = succ >= 0
+    graph = coo_matrix((np.ones(linked.sum(), dtype=np.int8), (half[linked], succ[linked])), shape=(n_half, n_half))
+    n_comp, label = connected_components(graph, directed=True, connection="weak")
+    comp_min = np.full(n_comp, n_half)
+    np.minimum.at(comp_min, label, half)
+    # each loop or chain is found twice, once per direction; keep the one holding an
+    # even half-end as its smallest
+    keep = comp_min[label] % 2 == 0
+    comp_open = np.zeros(n_comp, dtype=bool)
+    comp_open[label[~linked]] = True
+
+    # break every closed loop before its smallest half-end, then rank by pointer jumping
+    pred = np.full(n_half, -1)
+    pred[succ[linked]] = half[linked]
+    chain_succ = succ.copy()
+    closed_heads = comp_min[~comp_open]
+    chain_succ[pred[closed_heads]] = -1
+    dist = _distance_to_tail(chain_succ)
+
+    kept = half[keep]
+    ring_label = label[kept]
+    order_key = -dist[kept]
+    coords = xy[kept]
+    tails = kept[(succ[kept] < 0)]
+    ring_label = np.concatenate([ring_label, label[tails]])
+    order_key = np.concatenate([order_key, np.ones(len(tails), dtype=order_key.dtype)])
+    coords = np.concatenate([coords, xy[tails ^ 1]])
+    order = np.lexsort((order_key, ring_label))
+    ring_label = ring_label[order]
+    coords = coords[order]
+    uniq, ring_index, ring_size = np.unique(ring_label, return_inverse=True, return_counts=True)
+    ring_plane = half_plane[comp_min[uniq]]
+    return (ring_index, coords, ring_size), ring_plane
+
+
+def _pair_equal(nodes: np.ndarray) -> np.ndarray:
+    """Mate of each half-end: another one with the same node id, or -1.
+
+    Equal ids are paired in order of index (first with second, third with fourth...);
+    an odd one out stays unpaired.
+    """
+    order = np.argsort(nodes, kind="stable")
+    sorted_nodes = nodes[order]
+    run_start = np.r_[True, sorted_nodes[1:] != sorted_nodes[:-1]]
+    position = np.arange(len(nodes))
+    rank = position - np.maximum.accumulate(np.where(run_start, position, 0))
+    has_next = np.r_[sorted_nodes[1:] == sorted_nodes[:-1], False]
+    lead = np.flatnonzero((rank % 2 == 0) & has_next)
+    mate = np.full(len(nodes), -1)
+    mate[order[lead]] = order[lead + 1]
+    mate[order[lead + 1]] = order[lead]
+    return mate
+
+
+def _pair_open_ends(mate: np.ndarray, xy: np.ndarray, plane: np.ndarray, tolerance: float) -> None:
+    """Mate (in place) open half-ends of the same plane that are each other's nearest within ``tolerance``."""
+    open_ends = np.flatnonzero(mate < 0)
+    if len(open_ends) < 2 or tolerance <= 0:
+        return
+    pts = xy[open_ends]
+    span = np.ptp(pts, axis=0).max() + 4 * tolerance + 1.0
+    keyed = np.column_stack([pts, plane[open_ends] * span])
+    dist, idx = cKDTree(keyed).query(keyed, k=min(3, len(open_ends)), distance_upper_bound=tolerance)
+    own = np.arange(len(open_ends))[:, None]
+    candidate = np.where((idx != own) & np.isfinite(dist), idx, len(open_ends))
+    nearest = np.take_along_axis(candidate, np.argmin(candidate == len(open_ends), axis=1)[:, None], axis=1)[:, 0]
+    found = nearest < len(open_ends)
+    mutual = np.zeros(len(open_ends), dtype=bool)
+    mutual[found] = nearest[nearest[found]] == own[found, 0]
+    mate[open_ends[mutual]] = open_ends[nearest[mutual]]
+
+
+def _distance_to_tail(succ: np.ndarray) -> np.ndarray:
+    """Number of steps from each element to the end of its chain (pointer jumping)."""
+    nxt = succ.copy()
+    dist = (nxt >= 0).astype(np.int64)
+    active = np.flatnonzero(nxt >= 0)
+    while len(active):
+        step = nxt[active]
+        dist[active] += dist[step]
+        nxt[active] = nxt[step]
+        active = active[nxt[active] >= 0]
+    return dist
+
+
+def _assemble(rings, ring_plane: np.ndarray, n_planes: int) -> np.ndarray:
+    """Even-odd regions of each plane's rings: an object array of MultiPolygons."""
+    ring_index, coords, ring_size = rings
+    out = np.array([shapely.MultiPolygon() for _ in range(n_planes)], dtype=object)
+    usable = ring_size >= 3
+    if not usable.any():
+        return out
+    keep_point = usable[ring_index]
+    new_index = np.cumsum(usable) - 1
+    ring_index = new_index[ring_index[keep_point]]
+    coords = coords[keep_point]
+    ring_plane = ring_plane[usable]
+    polygons = shapely.polygons(shapely.linearrings(coords, indices=ring_index))
+    solid = np.abs(shapely.area(polygons)) > _MIN_LOOP_AREA
+    polygons, ring_plane = polygons[solid], ring_plane[solid]
+    if len(polygons) == 0:
+        return out
+    parent, depth = _nesting(polygons, ring_plane)
+    shell = depth % 2 == 0
+    is_hole = ~shell & (parent >= 0)
+    is_hole[is_hole] = shell[parent[is_hole]]
+    group = np.where(is_hole, parent, np.arange(len(polygons)))
+    order = np.lexsort((is_hole, group, ring_plane))
+    new_group = np.r_[True, group[order][1:] != group[order][:-1]]
+    group_index = np.cumsum(new_group) - 1
+    regions = shapely.polygons(shapely.get_exterior_ring(polygons[order]), indices=group_index)
+    region_plane = ring_plane[order][new_group]
+    shapely.multipolygons(regions, indices=region_plane, out=out)
+    bad = np.flatnonzero(~shapely.is_valid(out))
+    for i in bad:
+        out[i] = _polygonal(shapely.make_valid(out[i]))
+    return shapely.orient_polygons(out)
+
+
+def _nesting(polygons: np.ndarray, plane: np.ndarray):
+    """Innermost enclosing ring (or -1) and enclosure depth of each ring, within its plane.
+
+    Planes are laid side by side along x so one spatial index serves them all; a ring
+    is inside another when its first vertex lies in the other's interior.
+    """
+    bounds = shapely.total_bounds(polygons)
+    width = (bounds[2] - bounds[0]) * 2 + 1.0
+    offsets = np.column_stack([plane * width, np.zeros(len(plane))])
+    per_coordinate = np.repeat(offsets, shapely.get_num_coordinates(polygons), axis=0)
+    shifted = shapely.transform(polygons, lambda coords: coords + per_coordinate)
+    first = shapely.get_point(shapely.get_exterior_ring(polygons), 0)
+    probe = shapely.points(shapely.get_coordinates(first) + offsets)
+    inner, outer = shapely.STRtree(shifted).query(probe, predicate="within")
+    depth = np.bincount(inner, minlength=len(polygons))
+    parent = np.full(len(polygons), -1)
+    order = np.lexsort((depth[outer], inner))
+    inner, outer = inner[order], outer[order]
+    last = np.r_[inner[1:] != inner[:-1], True][: len(inner)]
+    parent[inner[last]] = outer[last]
+    return parent, depth
+
+
+def _polygonal(geometry: shapely.Geometry) -> shapely.MultiPolygon:
+    """The polygons of a valid geometry (collection), as one valid MultiPolygon."""
+    parts = shapely.get_parts(shapely.get_parts(geometry))
+    polys = parts[shapely.get_type_id(parts) == shapely.GeometryType.POLYGON]
+    result = shapely.multipolygons(polys)
+    if not shapely.is_valid(result):
+        result = shapely.multipolygons(shapely.get_parts(shapely.union_all(polys)))
+    return result
+
+
+class _TriangleDistance:
+    """Exact unsigned distance from points to a triangle soup (mm).
+
+    Bounds: a set of points lying within ``t`` of a plane (unit normal ``n``) and within
+    ``R`` of a centre ``c`` is at least ``sqrt(max(0, |h| - t)^2 + max(0, l - R)^2)`` from
+    ``p``, with ``h = (p - c).n`` and ``l`` the in-plane distance from ``p`` to ``c``. A
+    triangle is such a set with ``t = 0``; so is a *cluster* of 16 triangles consecutive
+    in Morton order of their centroids (``t`` = its thickness about its mean plane).
+
+    Search: ``best`` starts at the distance to the nearest vertex. Clusters are grouped
+    by ``R`` (factors of 4), each group with a k-d tree of centres searched within
+    ``best + R``, widening ``k`` until the bound, not ``k``, limits the search. Clusters
+    whose bound beats ``best`` are opened, their triangles bounded the same way, and the
+    survivors measured exactly with ``trimesh.triangles.closest_point``.
+    """
+
+    _CLUSTER = 16
+
+    def __init__(self, triangles: np.ndarray):
+        centroids = triangles.mean(axis=1)
+        order = np.argsort(_morton_codes(centroids), kind="stable")
+        self._triangles = triangles[order]
+        pad = (-len(order)) % self._CLUSTER
+        members = np.r_[np.arange(len(order)), np.full(pad, len(order) - 1)].reshape(-1, self._CLUSTER)
+        self._members = members
+        normal = np.cross(self._triangles[:, 1] - self._triangles[:, 0], self._triangles[:, 2] - self._triangles[:, 0])
+        self._tri = _bounding_slabs(self._triangles, normal)
+        cluster_vertices = self._triangles[members].reshape(len(members), -1, 3)
+        self._cluster = _bounding_slabs(cluster_vertices, normal[members].sum(axis=1))
+        size_class = np.floor(np.log2(np.maximum(self._cluster[1], 1e-9)) / 2).astype(int)
+        self._groups = []
+        for cls in np.unique(size_class):
+            ids = np.flatnonzero(size_class == cls)
+            self._groups.append((ids, float(self._cluster[1][ids].max()), cKDTree(self._cluster[0][ids])))
+        self._vertex_tree = cKDTree(np.unique(triangles.reshape(-1, 3), axis=0))
+
+    def query(self, points: np.ndarray) -> np.ndarray:
+        """Distance (mm) from each (N, 3) point to the nearest triangle."""
+        best = self._vertex_tree.query(points)[0]
+        for ids, radius, tree in self._groups:
+            pending = np.arange(len(points))
+            done = 0
+            k = 8
+            while len(pending):
+                k_eff = min(k, len(ids))
+                bound = best[pending] + radius
+                dist, idx = tree.query(points[pending], k=k_eff, distance_upper_bound=float(bound.max()))
+                dist = dist.reshape(len(pending), k_eff)[:, done:]
+                idx = idx.reshape(len(pending), k_eff)[:, done:]
+                within = dist <= bound[:, None]
+                rows, cols = np.nonzero(within)
+                self._open_clusters(best, pending[rows], ids[idx[rows, cols]], points)
+                if k_eff == len(ids):
+                    break
+                pending = pending[within[:, -1]]
+                done = k_eff
+                k *= 4
+        return best
+
+    def _open_clusters(self, best, point, cluster, points) -> None:
+        """Lower ``best[point]`` with the triangles of ``cluster`` that may beat it."""
+        close = _lower_bound(points[point], self._cluster, cluster) < best[point]
+        point = np.repeat(point[close], self._CLUSTER)
+        tri = self._members[cluster[close]].ravel()
+        close = _lower_bound(points[point], self._tri, tri) < best[point]
+        point, tri = point[close], tri[close]
+        nearest = trimesh.triangles.closest_point(self._triangles[tri], points[point])
+        np.minimum.at(best, point, np.linalg.norm(nearest - points[point], axis=1))
+
+
+def _bounding_slabs(vertices: np.ndarray, normal: np.ndarray):
+    """(centre, radius, unit normal, thickness) of each (K, 3) vertex set (see _TriangleDistance)."""
+    centre = vertices.mean(axis=1)
+    offset = vertices - centre[:, None, :]
+    radius = np.linalg.norm(offset, axis=2).max(axis=1)
+    length = np.linalg.norm(normal, axis=1, keepdims=True)
+    unit = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
+    thickness = np.abs(np.einsum("ikj,ij->ik", offset, unit)).max(axis=1)
+    thickness[length[:, 0] == 0] = np.inf
+    return centre, radius, unit, thickness
+
+
+def _lower_bound(p: np.ndarray, slabs, index: np.ndarray) -> np.ndarray:
+    """Lower bound on the distance from points ``p`` to the vertex sets ``index`` of ``slabs``."""
+    centre, radius, unit, thickness = (a[index] for a in slabs)
+    offset = p - centre
+    height = np.einsum("ij,ij->i", offset, unit)
+    lateral = np.linalg.norm(offset - height[:, None] * unit, axis=1)
+    across = np.maximum(np.abs(height) - thickness, 0.0)
+    across = np.where(np.isfinite(thickness), across, 0.0)
+    along = np.maximum(lateral - radius, 0.0)
+    return np.sqrt(across**2 + along**2)
+
+
+def _morton_codes(points: np.ndarray) -> np.ndarray:
+    """30-bit Morton (Z-order) codes of (N, 3) points quantized to 1024 levels per axis."""
+    lo = points.min(axis=0)
+    span = np.maximum(points.max(axis=0) - lo, 1e-12)
+    q = np.minimum((points - lo) / span * 1024, 1023).astype(np.int64)
+    for shift, mask in ((16, 0x030000FF), (8, 0x0300F00F), (4, 0x030C30C3), (2, 0x09249249)):
+        q = (q | (q << shift)) & mask
+    return q[:, 0] | (q[:, 1] << 1) | (q[:, 2] << 2)
+
+
+class _RayCrossings:
+    """Parity of crossings between triangles and rays cast from points along +axis.
+
+    Triangles are projected on the plane normal to ``axis`` and binned in a uniform
+    grid. A point exactly on a projected edge or vertex is decided by simulation of
+    simplicity: it is moved by an infinitesimal along a fixed irrational direction, so
+    a ray through a shared edge hits exactly one of its two triangles.
+    """
+
+    _PERTURBATION = np.array([1.0, 0.6180339887498949])
+
+    def __init__(self, triangles: np.ndarray, axis: int):
+        self._axis = axis
+        self._uv = [a for a in range(3) if a != axis]
+        flat = triangles[:, :, self._uv]
+        self._flat = flat
+        self._height = triangles[:, :, axis]
+        lo = flat.min(axis=1)
+        hi = flat.max(axis=1)
+        extent = np.maximum(hi - lo, 0).max(axis=1)
+        self._origin = lo.min(axis=0)
+        span = hi.max(axis=0) - self._origin
+        self._cell = max(float(np.median(extent)) * 2, float(span.max()) / 2048, 1e-9)
+        self._shape = np.floor(span / self._cell).astype(np.int64) + 1
+        i0 = np.floor((lo - self._origin) / self._cell).astype(np.int64)
+        i1 = np.floor((hi - self._origin) / self._cell).astype(np.int64)
+        nu = i1[:, 0] - i0[:, 0] + 1
+        nv = i1[:, 1] - i0[:, 1] + 1
+        counts = nu * nv
+        tri = np.repeat(np.arange(len(triangles)), counts)
+        local = _ranks_within_runs(counts)
+        cu = i0[tri, 0] + local % nu[tri]
+        cv = i0[tri, 1] + local // nu[tri]
+        cell = cu * self._shape[1] + cv
+        order = np.argsort(cell, kind="stable")
+        self._cell_triangles = tri[order]
+        self._cell_start = np.searchsorted(cell[order], np.arange(self._shape.prod() + 1))
+
+    def odd_crossings(self, points: np.ndarray) -> np.ndarray:
+        """True where the ray from each (N, 3) point crosses the surface an odd number of times."""
+        q = points[:, self._uv]
+        cell_uv = np.floor((q - self._origin) / self._cell).astype(np.int64)
+        in_grid = ((cell_uv >= 0) & (cell_uv < self._shape)).all(axis=1)
+        cell = np.where(in_grid, cell_uv[:, 0] * self._shape[1] + cell_uv[:, 1], 0)
+        start = self._cell_start[cell]
+        counts = np.where(in_grid, self._cell_start[cell + 1] - start, 0)
+        point = np.repeat(np.arange(len(points)), counts)
+        tri = self._cell_triangles[np.repeat(start, counts) + _ranks_within_runs(counts)]
+        corners = self._flat[tri]
+        qp = q[point]
+        nxt = np.roll(corners, -1, axis=1)
+        edge = nxt - corners
+        rel = qp[:, None, :] - corners
+        w = edge[..., 0] * rel[..., 1] - edge[..., 1] * rel[..., 0]
+        tie = edge[..., 0] * self._PERTURBATION[1] - edge[..., 1] * self._PERTURBATION[0]
+        side = np.where(w == 0, tie, w)
+        hit = (side > 0).all(axis=1) | (side < 0).all(axis=1)
+        # w[:, j] belongs to edge j -> j+1, i.e. it is the barycentric weight of corner j+2
+        weights = np.roll(w[hit], -1, axis=1)
+        height = (weights * self._height[tri[hit]]).sum(axis=1) / weights.sum(axis=1)
+        above = height > points[point[hit], self._axis]
+        return np.bincount(point[hit][above], minlength=len(points)) % 2 == 1
