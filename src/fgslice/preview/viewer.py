@@ -196,7 +196,7 @@ def _states_meta(program: GcodeProgram, header: dict[str, str]) -> list[dict]:
         for i, color in zip(known, mix_colors(np.array([fractions[i] for i in known]), rgb).tolist()):
             colors[i] = tuple(color)
     varying = {name for name in ("tool", "temperature", "flow")
-               if len({getattr(s, name) for s in program.states}) > 1}
+               if len({getattr(s, name) for s in program.states} - {None}) > 1}
     return [{"label": _state_label(s, labels, f, varying), "color": c, "tool": s.tool}
             for s, f, c in zip(program.states, fractions, colors)]
 

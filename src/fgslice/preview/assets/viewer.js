@@ -8,7 +8,6 @@ import { OrbitControls } from './OrbitControls.js';
 const BACKGROUND = 0x1e2127;
 const TRAVEL_COLOR = 0x4a90e2;
 const $ = (id) => document.getElementById(id);
-const started = performance.now();
 
 async function fetchBuffer(name) {
   const response = await fetch(`data/${name}`);
@@ -198,7 +197,7 @@ function start(data) {
   showStats(meta);
   setMode($('color-mode').value);
   setRange(maxInput);
-  info.dataset.loadMs = String(Math.round(performance.now() - started));
+  info.dataset.loadMs = String(Math.round(performance.now()));
   info.dataset.ready = '1';
 }
 
