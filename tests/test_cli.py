@@ -45,7 +45,6 @@ def test_slice_writes_gcode_stats_and_a_summary(design, tmp_path):
         (["--profile", "toolchanger", "--colors", "8"], "tool"),
         (["--set", "bed_x=30"], "bed"),
         (["--layer-height", "1.5", "--set", "bead_width=2"], "max_cross_section_mm2"),
-        (["--layer-height", "2", "--set", "bead_width=2.5", "--set", "max_cross_section_mm2=20"], "no layers"),
     ],
 )
 def test_bad_input_fails_cleanly_without_output(design, tmp_path, args, words):
@@ -56,6 +55,15 @@ def test_bad_input_fails_cleanly_without_output(design, tmp_path, args, words):
     assert "Traceback" not in result.output
     assert not out.exists()
     assert not list(tmp_path.glob(".out.gcode*")), "no temporary file is left behind"
+
+
+def test_a_design_thinner_than_half_a_layer_has_no_layers(tmp_path):
+    path = tmp_path / "thin.vcad"
+    path.write_text('rectprism(20, 20, 0.08, "red")\n', encoding="utf-8")
+    out = tmp_path / "thin.gcode"
+    result = run("slice", path, "-o", out)
+    assert result.exit_code == 2 and "no layers" in result.output
+    assert not out.exists()
 
 
 def test_unwritable_output_and_input_overwrite_are_refused(design, tmp_path):

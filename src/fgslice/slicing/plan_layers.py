@@ -71,8 +71,10 @@ def place_design(design: Design, settings: Settings) -> Placement:
 
 
 def layer_count(height: float, layer_height: float) -> int:
-    """Layers of thickness ``layer_height`` whose mid-plane lies inside a part ``height`` mm tall."""
-    return max(0, math.ceil(height / layer_height - 0.5 - _EPS))
+    """Layers of thickness ``layer_height`` whose mid-plane lies inside a part ``height`` mm
+    tall, its top face included: the height rounded to the nearest layer, halves up (a
+    1.5 mm part at 0.2 mm has 8 layers, as in the paper's tensile specimens)."""
+    return max(0, math.floor(height / layer_height + 0.5 + _EPS))
 
 
 def layer_heights(design: Design, settings: Settings) -> list[tuple[int, float, float]]:
