@@ -190,7 +190,8 @@ def slice_to_gcode(
     """
     started = time.perf_counter()
     jobs = default_jobs() if jobs is None else max(1, jobs)
-    palette = Palette(len(design.materials), settings.colors)
+    n_materials = len(design.materials)
+    palette = Palette(n_materials, settings.colors if n_materials > 1 else 1)
     dialect = make_dialect(settings, palette)
     placement = place_design(design, settings)
     layers = layer_heights(design, settings)
