@@ -1,0 +1,160 @@
+"""Mesh loading, exact sections and signed distance (fgslice.design.mesh)."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import shapely
+import trimesh
+
+from fgslice.design.mesh import MeshGeometry, load_mesh
+from fgslice.errors import MeshError
+
+
+def _reference_area(mesh: trimesh.Trimesh, z: float) -> float:
+    """Even-odd area of trimesh's own plane cut: noded, polygonized segments, faces kept by ray parity."""
+    segments = trimesh.intersections.mesh_plane(mesh, plane_normal=[0, 0, 1], plane_origin=[0, 0, z])[:, :, :2]
+    noded = shapely.node(shapely.multilinestrings(shapely.linestrings(np.round(segments, 9))))
+    faces = shapely.get_parts(shapely.polygonize(shapely.get_parts(noded)))
+    probes = shapely.get_coordinates(shapely.point_on_surface(faces))
+    a, b = segments[:, 0], segments[:, 1]
+    px, py = probes[:, 0:1], probes[:, 1:2]
+    straddle = (a[:, 1] > py) != (b[:, 1] > py)
+    x_cross = a[:, 0] + (py - a[:, 1]) * (b[:, 0] - a[:, 0]) / np.where(b[:, 1] == a[:, 1], 1, b[:, 1] - a[:, 1])
+    odd = (straddle & (x_cross > px)).sum(axis=1) % 2 == 1
+    return float(shapely.area(faces[odd]).sum())
+
+
+def _save(mesh: trimesh.Trimesh, path: Path, **kwargs) -> Path:
+    mesh.export(path, **kwargs)
+    return path
+
+
+@pytest.fixture
+def box_mesh() -> trimesh.Trimesh:
+    return trimesh.creation.box(extents=(10.0, 20.0, 30.0))
+
+
+@pytest.mark.parametrize("name, kwargs", [("box.stl", {}), ("box_ascii.stl", {"file_type": "stl_ascii"}), ("box.obj", {}), ("box.3mf", {})])
+def test_load_formats_give_exact_box(tmp_path, box_mesh, name, kwargs):
+    geometry = load_mesh(_save(box_mesh, tmp_path / name, **kwargs))
+    assert geometry.path == tmp_path / name
+    assert geometry.triangle_count == 12
+    assert geometry.watertight
+    np.testing.assert_allclose(geometry.bounds(), ((-5, -10, -15), (5, 10, 15)))
+    section = geometry.section(3.0)
+    assert isinstance(section, shapely.MultiPolygon)
+    assert section.area == pytest.approx(200.0, rel=1e-12)
+    assert section.equals(shapely.box(-5, -10, 5, 10))
+
+
+def test_scene_bodies_are_concatenated(tmp_path):
+    scene = trimesh.Scene([trimesh.creation.box(extents=(2, 2, 2)), trimesh.creation.box(extents=(2, 2, 2)).apply_translation((10, 0, 0))])
+    geometry = load_mesh(_save(scene, tmp_path / "two.3mf"))
+    section = geometry.section(0.5)
+    assert len(section.geoms) == 2
+    assert section.area == pytest.approx(8.0)
+
+
+def test_cylinder_section_is_exact_polygon_and_matches_trimesh(tmp_path):
+    mesh = trimesh.creation.cylinder(radius=7.0, height=10.0, sections=64)
+    geometry = MeshGeometry(mesh)
+    for z in (-4.9, 0.0, 3.3):
+        section = geometry.section(z)
+        exact = 0.5 * 64 * 49.0 * np.sin(2 * np.pi / 64)
+        assert section.area == pytest.approx(exact, rel=1e-12)
+        assert section.area == pytest.approx(_reference_area(mesh, z), rel=1e-9)
+        assert shapely.is_ccw(section.geoms[0].exterior)
+
+
+def test_annulus_keeps_hole_with_cw_orientation():
+    mesh = trimesh.creation.annulus(r_min=3.0, r_max=6.0, height=4.0, sections=48)
+    section = MeshGeometry(mesh).section(0.25)
+    (polygon,) = section.geoms
+    assert len(polygon.interiors) == 1
+    assert not shapely.is_ccw(polygon.interiors[0])
+    assert section.area == pytest.approx(_reference_area(mesh, 0.25), rel=1e-9)
+    assert polygon.contains(shapely.Point(4.5, 0)) and not polygon.contains(shapely.Point(0, 0))
+
+
+def test_vertex_on_plane_and_planes_outside(box_mesh):
+    geometry = MeshGeometry(box_mesh)
+    sections = geometry.sections([15.0, -15.0, 0.0, 40.0, -40.0])
+    # vertices on the plane count as above it: the top cut is the full face, the bottom one empty
+    assert sections[0].area == pytest.approx(200.0)
+    assert sections[1].is_empty
+    assert sections[2].area == pytest.approx(200.0)
+    assert sections[3].is_empty and sections[4].is_empty
+
+
+def test_open_mesh_sections_are_closed(box_mesh):
+    mesh = box_mesh.copy()
+    side = np.flatnonzero(mesh.face_normals[:, 0] > 0.5)
+    mesh.update_faces(np.setdiff1d(np.arange(len(mesh.faces)), side))
+    geometry = MeshGeometry(mesh)
+    assert not geometry.watertight
+    section = geometry.section(1.0)
+    assert section.is_valid
+    assert section.area == pytest.approx(200.0)
+
+
+def test_sdf_of_box_and_of_open_box(box_mesh):
+    x = np.array([0.0, 4.0, 7.0, 0.0, 0.0])
+    y = np.array([0.0, 0.0, 0.0, 13.0, -9.5])
+    z = np.array([0.0, 0.0, 0.0, 0.0, 14.0])
+    expected = np.array([-5.0, -1.0, 2.0, 3.0, -0.5])
+    np.testing.assert_allclose(MeshGeometry(box_mesh).sdf(x, y, z), expected, atol=1e-12)
+    mesh = box_mesh.copy()
+    mesh.update_faces(np.arange(1, len(mesh.faces)))
+    np.testing.assert_allclose(MeshGeometry(mesh).sdf(x, y, z), expected, atol=1e-12)
+
+
+def test_sdf_broadcasts(box_mesh):
+    grid = np.linspace(-8, 8, 5)
+    values = MeshGeometry(box_mesh).sdf(grid[:, None], grid[None, :], 0.0)
+    assert values.shape == (5, 5)
+    assert values[2, 2] == pytest.approx(-5.0)
+
+
+@pytest.mark.parametrize(
+    "name, content, fragment",
+    [
+        ("missing.stl", None, "not found"),
+        ("junk.stl", b"\x00\x01garbage" * 7, "no triangles"),
+        ("junk.3mf", b"PK\x03\x04 not a zip", "cannot read"),
+        ("empty.obj", b"", "no triangles"),
+        ("model.ply", b"ply", "unsupported"),
+        (
+            "nan.stl",
+            b"solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex nan 1 0\nendloop\nendfacet\nendsolid s\n",
+            "non-finite",
+        ),
+    ],
+)
+def test_bad_files_raise_mesh_error(tmp_path, name, content, fragment):
+    path = tmp_path / name
+    if content is not None:
+        path.write_bytes(content)
+    with pytest.raises(MeshError) as info:
+        load_mesh(path)
+    assert fragment in info.value.message
+    assert info.value.file == str(path)
+    assert info.value.hint
+
+
+@pytest.mark.slow
+def test_benchy_sections_match_trimesh(benchy_path):
+    geometry = load_mesh(benchy_path)
+    assert geometry.triangle_count == 225154
+    assert not geometry.watertight
+    (lo, hi) = geometry.bounds()
+    zs = lo[2] + 0.1 + 0.2 * np.arange(240)
+    sections = geometry.sections(zs)
+    assert all(s.is_valid and isinstance(s, shapely.MultiPolygon) for s in sections)
+    assert all(not s.is_empty for s in sections)
+    for k in (3, 60, 130, 200):
+        reference = _reference_area(geometry._mesh, zs[k])
+        assert sections[k].area == pytest.approx(reference, rel=5e-3)
+        assert geometry.section(zs[k]).equals_exact(sections[k], 0.0)
+    volume = sum(s.area for s in sections) * 0.2
+    assert volume == pytest.approx(abs(geometry._mesh.volume), rel=0.01)
