@@ -1,12 +1,16 @@
 // fgslice viewer: draws a G-code file's segments, served by fgslice.preview.viewer.
 // Data: data/meta.json plus binary arrays (see viewer.py). Segments are sorted by layer,
 // so a layer range is one draw range of one LineSegments per kind (extrusions, travels).
-// Colors are sRGB bytes passed through unchanged (color management off).
+// Colors are sRGB bytes passed through unchanged (color management off). Frames are
+// drawn on demand, at most one per animation frame.
 import * as THREE from './three.module.min.js';
 import { OrbitControls } from './OrbitControls.js';
 
 const BACKGROUND = 0x1e2127;
 const TRAVEL_COLOR = 0x4a90e2;
+// Multisampling quadruples the fragments of software renderers; past this many
+// segments lines are dense enough to draw without it.
+const ANTIALIAS_LIMIT = 1_000_000;
 const $ = (id) => document.getElementById(id);
 
 async function fetchBuffer(name) {
@@ -112,7 +116,7 @@ function start(data) {
   const { meta } = data;
   THREE.ColorManagement.enabled = false;
   const view = $('view');
-  const renderer = new THREE.WebGLRenderer({ antialias: true });
+  const renderer = new THREE.WebGLRenderer({ antialias: meta.extrusion_count < ANTIALIAS_LIMIT });
   renderer.outputColorSpace = THREE.LinearSRGBColorSpace;
   renderer.setPixelRatio(window.devicePixelRatio);
   view.append(renderer.domElement);
@@ -139,7 +143,12 @@ function start(data) {
   controls.target.copy(center);
   controls.update();
 
-  const render = () => renderer.render(scene, camera);
+  let pending = false;
+  const render = () => {
+    if (pending) return;
+    pending = true;
+    requestAnimationFrame(() => { pending = false; renderer.render(scene, camera); });
+  };
   controls.addEventListener('change', render);
   new ResizeObserver(() => {
     const { clientWidth: w, clientHeight: h } = view;
