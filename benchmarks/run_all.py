@@ -1,0 +1,242 @@
+"""The paper's runtime table (Table "Slicing times"), side by side with PrusaSlicer and CuraEngine.
+
+Every row is sliced by ``fgslice slice ... --stats`` in its own process, so each figure
+covers one whole command (start-up, import, slicing, writing, verification):
+
+* wall: elapsed seconds of the command;
+* cpu: user + system seconds of the command and its worker processes (on a shared,
+  loaded machine this is the steadier figure);
+* peak: largest resident set of the command or any of its workers, MB (``wait4``);
+* ratios: our wall time over the paper's (1271 s vase ... 424 s palette) and over our
+  target (vase 8 s, Benchy 5 s, palette rows 1.5 s), and our CPU time over the target
+  (what the wall time would be on an idle machine with one core); below 1 is better.
+
+Then ``speedup``: the vase with ``--jobs 1`` and ``--jobs 2`` (target >= 1.6), and
+``compare``: a single-material 3DBenchy (0.2 mm layers, 2 walls, 15 % infill) with
+fgslice, ``prusa-slicer`` and ``CuraEngine`` (each skipped with a note when not installed).
+
+Run: ``.venv/bin/python benchmarks/run_all.py [--rows vase,benchy,...] [--jobs N] [--quick]``.
+Row names: see ``--list``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = ROOT / "examples"
+BENCHY_STL = ROOT.parent / "shared" / "data" / "meshes" / "3DBenchy.stl"
+
+VASE_TARGET_S = 8.0
+BENCHY_TARGET_S = 5.0
+PALETTE_TARGET_S = 1.5
+SPEEDUP_TARGET = 1.6
+
+VASE_ARGS = ("--strategy", "1", "--colors", "16", "--layer-height", "0.2",
+             "--set", "walls=10", "--set", "infill_density=0", "--set", "top_layers=0", "--set", "bottom_layers=0")
+PALETTE_S1 = ("--strategy", "1", "--layer-height", "0.2", "--set", "walls=3", "--set", "infill_density=100")
+PALETTE_S2 = ("--strategy", "2", "--layer-height", "0.2")
+
+
+@dataclass(frozen=True)
+class Row:
+    """One line of the paper's table: the design, the fgslice options, the paper's time (s)."""
+
+    name: str
+    design: Path
+    args: tuple[str, ...]
+    paper_s: float
+    target_s: float
+    quick: bool = False
+
+
+ROWS = (
+    Row("vase", EXAMPLES / "vase.vcad", VASE_ARGS, 1271, VASE_TARGET_S),
+    Row("benchy", EXAMPLES / "benchy.vcad", ("--strategy", "2", "--colors", "5", "--layer-height", "0.2"), 754, BENCHY_TARGET_S),
+    Row("palette_s1_c4", EXAMPLES / "palette.vcad", PALETTE_S1 + ("--colors", "4"), 33, PALETTE_TARGET_S, quick=True),
+    Row("palette_s1_c8", EXAMPLES / "palette.vcad", PALETTE_S1 + ("--colors", "8"), 54, PALETTE_TARGET_S),
+    Row("palette_s1_c12", EXAMPLES / "palette.vcad", PALETTE_S1 + ("--colors", "12"), 76, PALETTE_TARGET_S),
+    Row("palette_s1_c16", EXAMPLES / "palette.vcad", PALETTE_S1 + ("--colors", "16"), 99, PALETTE_TARGET_S, quick=True),
+    Row("palette_s1_c16_z10", EXAMPLES / "palette.vcad", PALETTE_S1 + ("--colors", "16", "--set", "zipper=10"), 219,
+        PALETTE_TARGET_S, quick=True),
+    Row("palette_s2_c12", EXAMPLES / "palette.vcad", PALETTE_S2 + ("--colors", "12"), 86, PALETTE_TARGET_S, quick=True),
+    Row("palette_s2_c24", EXAMPLES / "palette.vcad", PALETTE_S2 + ("--colors", "24"), 174, PALETTE_TARGET_S),
+    Row("palette_s2_c36", EXAMPLES / "palette.vcad", PALETTE_S2 + ("--colors", "36"), 285, PALETTE_TARGET_S),
+    Row("palette_s2_c48", EXAMPLES / "palette.vcad", PALETTE_S2 + ("--colors", "48"), 424, PALETTE_TARGET_S, quick=True),
+)
+EXTRA = ("speedup", "compare")
+
+
+@dataclass
+class Run:
+    """Measured cost of one command."""
+
+    wall_s: float
+    cpu_s: float
+    peak_mb: float
+    returncode: int
+    stderr: str
+
+
+def measure(cmd: list[str], cwd: Path) -> Run:
+    """Run ``cmd`` and return its wall time, CPU time and peak RSS (its own or any
+    waited-for descendant's, as ``wait4`` reports them on Linux: ru_maxrss in kB)."""
+    start = time.perf_counter()
+    with tempfile.TemporaryFile(mode="w+") as err:
+        proc = subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.DEVNULL, stderr=err)
+        _, status, usage = os.wait4(proc.pid, 0)
+        wall = time.perf_counter() - start
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        err.seek(0)
+        stderr = err.read()
+    return Run(wall, usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024, proc.returncode, stderr)
+
+
+def fgslice_cmd(design: Path, args: tuple[str, ...], out: Path, jobs: int) -> list[str]:
+    """The ``fgslice slice`` command line of one row, writing ``out`` and ``out``.json."""
+    return [sys.executable, "-m", "fgslice.cli", "slice", str(design), "-o", str(out),
+            "--stats", str(out.with_suffix(".json")), "--jobs", str(jobs), *args]
+
+
+def run_fgslice(design: Path, args: tuple[str, ...], out: Path, jobs: int) -> tuple[Run, dict]:
+    """Slice one row; returns the measurements and the statistics JSON (empty on failure)."""
+    run = measure(fgslice_cmd(design, args, out, jobs), ROOT)
+    stats_path = out.with_suffix(".json")
+    stats = json.loads(stats_path.read_text()) if run.returncode == 0 and stats_path.exists() else {}
+    return run, stats
+
+
+def print_table(rows: list[Row], jobs: int, workdir: Path) -> None:
+    head = (f"{'row':20s} {'layers':>6s} {'colors':>6s} {'wall s':>8s} {'cpu s':>8s} {'slice s':>8s} "
+            f"{'peak MB':>8s} {'paper s':>8s} {'/paper':>8s} {'target s':>8s} {'/target':>8s}")
+    print(f"fgslice, --jobs {jobs}\n{head}\n{'-' * len(head)}")
+    for row in rows:
+        run, stats = run_fgslice(row.design, row.args, workdir / f"{row.name}.gcode", jobs)
+        if run.returncode != 0:
+            print(f"{row.name:20s} failed (exit {run.returncode}): {run.stderr.strip().splitlines()[-1:]}")
+            continue
+        print(f"{row.name:20s} {stats['layers']:6d} {stats['colors']:6d} {run.wall_s:8.2f} {run.cpu_s:8.2f} "
+              f"{stats['elapsed_s']:8.2f} {run.peak_mb:8.0f} {row.paper_s:8.0f} {run.wall_s / row.paper_s:8.4f} "
+              f"{row.target_s:8.1f} {run.wall_s / row.target_s:8.2f} {run.cpu_s / row.target_s:8.2f}", flush=True)
+
+
+def print_speedup(workdir: Path) -> None:
+    """Vase with 1 and 2 worker processes."""
+    vase = ROWS[0]
+    one, _ = run_fgslice(vase.design, vase.args, workdir / "vase_j1.gcode", 1)
+    two, _ = run_fgslice(vase.design, vase.args, workdir / "vase_j2.gcode", 2)
+    if one.returncode or two.returncode:
+        print(f"\nspeed-up: vase failed ({one.stderr or two.stderr})")
+        return
+    print(f"\nvase --jobs 1: wall {one.wall_s:.2f} s, cpu {one.cpu_s:.2f} s; --jobs 2: wall {two.wall_s:.2f} s, "
+          f"cpu {two.cpu_s:.2f} s; speed-up {one.wall_s / two.wall_s:.2f} (target >= {SPEEDUP_TARGET})")
+
+
+def cura_definition() -> Path | None:
+    """Cura's ``fdmprinter.def.json`` (Debian package ``cura``), or None."""
+    candidates = [os.environ.get("CURA_FDMPRINTER", "")]
+    candidates += glob.glob("/usr/share/cura/resources/definitions/fdmprinter.def.json")
+    candidates += glob.glob("/usr/share/**/definitions/fdmprinter.def.json", recursive=True)
+    return next((Path(c) for c in candidates if c and Path(c).is_file()), None)
+
+
+def comparison_commands(stl: Path, workdir: Path, jobs: int) -> dict[str, list[str] | str]:
+    """Single-material Benchy: 0.2 mm layers, 2 walls, 15 % infill, 3 top / 3 bottom layers,
+    one skirt loop, centred on a 220 x 220 mm bed. A string value says why a slicer is skipped."""
+    design = workdir / "benchy_single.vcad"
+    design.write_text(f"mesh({json.dumps(str(stl))});\n")
+    commands: dict[str, list[str] | str] = {
+        "fgslice": fgslice_cmd(design, ("--strategy", "1", "--colors", "1", "--layer-height", "0.2",
+                                        "--set", "walls=2", "--set", "infill_density=15"), workdir / "single_fgslice.gcode", jobs)
+    }
+    prusa = shutil.which("prusa-slicer")
+    commands["prusa-slicer"] = [
+        prusa, "--export-gcode", "--layer-height", "0.2", "--first-layer-height", "0.2", "--perimeters", "2",
+        "--fill-density", "15%", "--top-solid-layers", "3", "--bottom-solid-layers", "3", "--skirts", "1",
+        "--center", "110,110", "-o", str(workdir / "single_prusa.gcode"), str(stl),
+    ] if prusa else "not installed (Debian package prusa-slicer)"
+    cura, definition = shutil.which("CuraEngine"), cura_definition()
+    if not cura:
+        commands["CuraEngine"] = "not installed (Debian package cura-engine)"
+    elif not definition:
+        commands["CuraEngine"] = "fdmprinter.def.json not found (Debian package cura, or set CURA_FDMPRINTER)"
+    else:
+        sets = {
+            "machine_width": 220, "machine_depth": 220, "machine_height": 250, "center_object": "true",
+            "layer_height": 0.2, "layer_height_0": 0.2, "wall_line_count": 2, "infill_sparse_density": 15,
+            "top_layers": 3, "bottom_layers": 3, "adhesion_type": "skirt", "skirt_line_count": 1,
+            "material_diameter": 1.75,
+        }
+        commands["CuraEngine"] = [cura, "slice", "-j", str(definition),
+                                  *[a for k, v in sets.items() for a in ("-s", f"{k}={v}")],
+                                  "-l", str(stl), "-o", str(workdir / "single_cura.gcode")]
+    return commands
+
+
+def print_comparison(workdir: Path, jobs: int) -> None:
+    if not BENCHY_STL.exists():
+        print(f"\ncomparison skipped: {BENCHY_STL} not found")
+        return
+    print("\nsingle-material 3DBenchy (0.2 mm, 2 walls, 15 % infill)")
+    runs: dict[str, Run] = {}
+    for name, cmd in comparison_commands(BENCHY_STL, workdir, jobs).items():
+        if isinstance(cmd, str):
+            print(f"  {name:13s} skipped: {cmd}")
+            continue
+        run = measure(cmd, workdir)
+        if run.returncode != 0:
+            print(f"  {name:13s} failed (exit {run.returncode}): {run.stderr.strip().splitlines()[-1:]}")
+            continue
+        runs[name] = run
+        ratio = "" if name == "fgslice" or "fgslice" not in runs else \
+            f"  fgslice/{name}: wall {runs['fgslice'].wall_s / run.wall_s:.2f}, cpu {runs['fgslice'].cpu_s / run.cpu_s:.2f}"
+        print(f"  {name:13s} wall {run.wall_s:7.2f} s  cpu {run.cpu_s:7.2f} s  peak {run.peak_mb:6.0f} MB{ratio}", flush=True)
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rows", help="comma-separated row names (default: all); see --list")
+    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="worker processes per slice")
+    parser.add_argument("--quick", action="store_true", help="only the palette rows marked quick, no vase/Benchy")
+    parser.add_argument("--list", action="store_true", help="print the row names and exit")
+    parser.add_argument("--keep", type=Path, help="write G-code and statistics here instead of a temporary folder")
+    args = parser.parse_args(argv)
+    names = [r.name for r in ROWS] + list(EXTRA)
+    if args.list:
+        print("\n".join(names))
+        return
+    if args.rows:
+        wanted = [n.strip() for n in args.rows.split(",") if n.strip()]
+        unknown = sorted(set(wanted) - set(names))
+        if unknown:
+            parser.error(f"unknown rows {', '.join(unknown)}; choose from {', '.join(names)}")
+    elif args.quick:
+        wanted = [r.name for r in ROWS if r.quick]
+    else:
+        wanted = names
+    print(f"{time.strftime('%Y-%m-%d %H:%M')}, load average {', '.join(f'{v:.2f}' for v in os.getloadavg())}, "
+          f"{os.cpu_count()} cores")
+    with tempfile.TemporaryDirectory() as tmp:
+        workdir = args.keep or Path(tmp)
+        workdir.mkdir(parents=True, exist_ok=True)
+        rows = [r for r in ROWS if r.name in wanted]
+        if rows:
+            print_table(rows, args.jobs, workdir)
+        if "speedup" in wanted:
+            print_speedup(workdir)
+        if "compare" in wanted:
+            print_comparison(workdir, args.jobs)
+
+
+if __name__ == "__main__":
+    main()
