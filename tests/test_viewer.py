@@ -8,6 +8,7 @@ import http.client
 import json
 import socket
 import threading
+import urllib.error
 import urllib.request
 
 import numpy as np
@@ -174,13 +175,14 @@ def test_binary_arrays_match_the_segments(server, gcode_file):
 def test_segments_are_sorted_by_layer_keeping_their_order(tmp_path):
     path = tmp_path / "cura.gcode"
     path.write_text("M83\n;LAYER:1\nG1 Z0.4\nG1 X1 Y0 E1\nG1 X2 Y0 E1\n;LAYER:0\nG1 Z0.2\nG1 X3 Y0 E1\n"
-                    ";LAYER:1\nG1 Z0.4\nG1 X4 Y0 E1\n")
+                    ";LAYER:1\nG1 Z0.4\nG1 X4 Y0 E1\nG1 F1e999\n")
     with ViewerServer(path) as running:
         meta = json.loads(_get(running.url + "data/meta.json")[2])
         extrusions = np.frombuffer(_get(running.url + "data/extrusions.bin")[2], dtype="<f4").reshape(-1, 2, 3)
     assert meta["layer_count"] == 2 and meta["extrusion_offsets"] == [0, 1, 4]
     np.testing.assert_allclose(extrusions[:, 1, 0], [3, 1, 2, 4])
     assert meta["bed"] is None
+    assert dict(meta["stats"])["unreadable words"].startswith("1 ")
     assert len({tuple(s["color"]) for s in meta["states"]}) == len(meta["states"])
 
 
@@ -208,7 +210,7 @@ def test_not_gcode_fails_before_listening(tmp_path):
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]
-    for path in (binary, text):
+    for path in (binary, text, tmp_path / "missing.gcode", tmp_path):
         with pytest.raises(GcodeError):
             ViewerServer(path, port=port)
     with socket.socket() as again:

@@ -20,7 +20,7 @@ from fgslice.pipeline import slice_to_gcode
 from fgslice.preview.viewer import ViewerServer
 from fgslice.settings import load_settings
 
-pytestmark = pytest.mark.browser
+pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
 ROOT = Path(__file__).resolve().parents[1]
 CHROMIUM = Path("/usr/bin/chromium")

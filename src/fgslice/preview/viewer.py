@@ -74,7 +74,7 @@ ROLE_COLORS = {
 
 _MIME = {".html": "text/html; charset=utf-8", ".js": "text/javascript; charset=utf-8",
          ".css": "text/css; charset=utf-8", "": "text/plain; charset=utf-8"}
-_KEY_VALUE = re.compile(rb"^;\s*([^=\n;]+?)\s*=[ \t]*([^\n]*?)\s*$", re.MULTILINE)
+_KEY_VALUE = re.compile(rb"^;[ \t]*([^=\n;]+?)[ \t]*=[ \t]*([^\r\n]*?)[ \t\r]*$", re.MULTILINE)
 _HEADER_STATS = ("materials", "colors", "dialect", "profile_name", "strategy", "layer_height", "bead_width")
 _COLOR_LABEL = re.compile(r"^color (\d+)$")
 
@@ -232,10 +232,13 @@ def build_viewer_data(program: GcodeProgram, header: dict[str, str], footer: dic
     tool_ids = sorted({s["tool"] for s in states})
     tools = [{"tool": t, "color": c} for t, c in zip(tool_ids, categorical_colors(len(tool_ids)))]
     points = np.concatenate([program.start[ext], program.end[ext]]) if len(ext) else np.zeros((1, 3))
+    lo, hi = points.min(axis=0), points.max(axis=0)
     travel_mm = float(np.linalg.norm(program.end[trv] - program.start[trv], axis=1).sum())
     stats = [["layers", str(n_layers)], ["extrusion segments", f"{len(ext):,}"], ["travel segments", f"{len(trv):,}"],
              ["travel", _format_mm(travel_mm)],
-             ["size", " x ".join(f"{v:.1f}" for v in points.max(axis=0) - points.min(axis=0)) + " mm"]]
+             ["size", " x ".join(f"{v:.1f}" for v in hi - lo) + " mm"]]
+    if program.faults:
+        stats.append(["unreadable words", f"{len(program.faults)} (see fgslice verify)"])
     stats += [[key, header[key]] for key in _HEADER_STATS if header.get(key)]
     stats += [[key, value] for key, value in footer.items()]
     bed = [float(header[k]) if re.fullmatch(r"\d+(\.\d*)?", header.get(k, "")) else None for k in ("bed_x", "bed_y")]
@@ -251,10 +254,9 @@ def build_viewer_data(program: GcodeProgram, header: dict[str, str], footer: dic
         "states": states,
         "roles": roles,
         "tools": tools,
-        "bbox": [points.min(axis=0).tolist(), points.max(axis=0).tolist()],
+        "bbox": [lo.tolist(), hi.tolist()],
         "bed": bed if None not in bed else None,
         "stats": stats,
-        "faults": len(program.faults),
     }
     buffers = {
         "extrusions.bin": ext_positions,
