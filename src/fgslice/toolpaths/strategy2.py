@@ -1,20 +1,22 @@
 """Strategy 2, "continuous printing against the gradient": every color face filled densely.
 
-Each face (one per palette color, bed frame, mm) is first simplified to half the
-``gcode_resolution`` (faces traced on a grid carry far more vertices than offsets
-need), then inset so that its outermost
-centerline lies exactly ``w / 2`` inside the face, then filled:
+Each face (one per palette color, bed frame, mm) is first simplified to
+:func:`simplify_tolerance` (faces traced on a grid carry far more vertices than offsets
+need), then filled by :func:`~fgslice.toolpaths.infill.dense_levels`, whose outermost
+centerline lies exactly ``w / 2`` inside the face:
 
-* ``concentric``: successive inward offsets ``s = A / h`` apart until nothing is left
-  (loop 0 has role PERIMETER, the others SOLID_INFILL);
-* ``rectilinear``: one loop (PERIMETER), then lines at 100 % density (spacing ``s``),
-  direction ``infill_angle`` on even layers and ``infill_angle + 90`` on odd ones,
-  linked into serpentines (SOLID_INFILL).
+* ``concentric``: successive inward offsets ``s = A / h`` apart until nothing is left;
+* ``rectilinear``: one loop, then lines at 100 % density (spacing ``s``), direction
+  ``infill_angle`` on even layers and ``infill_angle + 90`` on odd ones, linked into
+  serpentines (SOLID_INFILL), inside the face eroded by ``w / 2 + s / 2``.
 
-Slivers thinner than a spacing left between loops are printed as narrower gap-fill
-loops (:func:`~fgslice.toolpaths.infill.concentric_levels`). Paths are simplified to
-``gcode_resolution`` before they are returned. Parts of a face narrower than a bead
-are not printed; their area is reported in ``LayerPaths.uncovered_mm2``.
+Each loop's width makes it deposit its own territory's volume (no gap fill needed,
+thin tapering band ends included). Roles: the outermost loop of a face is
+EXTERNAL_PERIMETER when it runs along the part surface (within
+``w / 2 +`` :data:`SURFACE_TOLERANCE` of the outline's boundary), PERIMETER otherwise;
+inner loops are SOLID_INFILL. Paths are simplified to ``gcode_resolution`` before they
+are returned. Parts of a face narrower than a bead are not printed; their area is
+reported in ``LayerPaths.uncovered_mm2``.
 """
 
 from __future__ import annotations
@@ -24,30 +26,54 @@ import shapely
 
 from fgslice.settings import Settings
 from fgslice.slicing.layers import LayerRegions
-from fgslice.toolpaths.infill import concentric_levels, rectilinear, uncovered_area
+from fgslice.toolpaths.infill import dense_levels, rectilinear, uncovered_area
 from fgslice.toolpaths.paths import LayerPaths, Role
 from fgslice.toolpaths.simplify import simplify_paths
-from fgslice.toolpaths.walls import bead_spacing, offset, opening
+from fgslice.toolpaths.walls import bead_spacing, offset
+
+
+SURFACE_TOLERANCE = 0.05
+"""A face's outermost loop coming this close (mm) to ``w / 2`` from the outline's
+boundary lies along the part surface (role EXTERNAL_PERIMETER)."""
 
 
 def layer_paths(regions: LayerRegions, settings: Settings) -> LayerPaths:
     """Dense toolpaths of every color face of one layer (colors = face indices)."""
     w, h = settings.bead_width, settings.layer_height
     s = bead_spacing(w, h)
-    faces = shapely.simplify(np.asarray(regions.faces, dtype=object), settings.gcode_resolution / 2, preserve_topology=False)
+    faces = shapely.simplify(np.asarray(regions.faces, dtype=object), simplify_tolerance(settings), preserve_topology=False)
     out = LayerPaths(regions.index, regions.z, regions.height)
     if len(faces) == 0:
         return out
-    if settings.fill_pattern == "concentric":
-        loops = concentric_levels(faces, w / 2, s, w, h)
-        out.paths = loops.paths(np.where(loops.level == 0, Role.PERIMETER, Role.SOLID_INFILL), loops.region, h)
-    else:
-        loops = concentric_levels(faces, w / 2, s, w, h, max_levels=1)
-        out.paths = loops.paths(np.where(loops.level == 0, Role.PERIMETER, Role.SOLID_INFILL), loops.region, h)
-        inner = offset(opening(offset(faces, -w / 2), s / 2), -s / 2)
+    levels = None if settings.fill_pattern == "concentric" else 1
+    loops = dense_levels(faces, w / 2, s, w, h, max_levels=levels)
+    out.paths = loops.paths(_roles(loops, regions.outline, w), loops.region, h)
+    if settings.fill_pattern == "rectilinear":
+        inner = offset(faces, -(w / 2 + s / 2))
         angle = settings.infill_angle + 90.0 * (regions.index % 2)
         for color, area in enumerate(inner):
             out.paths += rectilinear(area, 100.0, angle, w, h, Role.SOLID_INFILL, color=color)
     out.paths = simplify_paths(out.paths, settings.gcode_resolution)
     out.uncovered_mm2 = uncovered_area(faces, w)
     return out
+
+
+def simplify_tolerance(settings: Settings) -> float:
+    """How far (mm) face boundaries may move before offsetting: ``max(gcode_resolution / 2, w / 40)``."""
+    return max(settings.gcode_resolution / 2, settings.bead_width / 40)
+
+
+def _roles(loops, outline, width: float) -> np.ndarray:
+    """Per loop: EXTERNAL_PERIMETER for outermost loops along the outline's boundary,
+    PERIMETER for the other outermost loops, SOLID_INFILL inside."""
+    roles = np.where(loops.level == 0, Role.PERIMETER, Role.SOLID_INFILL)
+    first = np.flatnonzero(loops.level == 0)
+    if len(first) == 0:
+        return roles
+    outer = (loops.level == 0)[loops.ring]
+    rings = shapely.linestrings(loops.coords[outer], indices=np.searchsorted(first, loops.ring[outer]))
+    boundary = shapely.boundary(outline)
+    shapely.prepare(boundary)
+    surface = shapely.dwithin(rings, boundary, width / 2 + SURFACE_TOLERANCE)
+    roles[first[surface]] = Role.EXTERNAL_PERIMETER
+    return roles
