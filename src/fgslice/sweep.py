@@ -1,0 +1,190 @@
+"""Parameter sweeps: slice one design for every combination of palette size, zipper width
+and strategy, as the paper's experiments do (palette object at 4..48 colors, zipper on/off).
+
+For each combination ``<stem>_c<colors>_z<zipper>_s<strategy>`` the sweep writes
+``<name>.gcode`` and ``<name>.json`` (the slicer's statistics) into the output folder,
+then ``summary.csv``: one row per combination with layers, extruded volume (cm^3), purge
+volume (cm^3), state changes, estimated print time (s) and slicing time (s).
+
+Zipper widths apply to strategy 1 only (strategy 2 has no walls to zip), so strategy 2
+combinations are sliced once per palette size with zipper 0.
+
+Locally, combinations run one after another and each slices its layers in a process pool
+(``jobs``). With a Dask ``scheduler``, every combination is one task on the cluster
+(sliced there with one process); the workers write into ``out_dir``, which must be a
+folder they can reach (a shared file system for a remote cluster).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from fgslice.design import load_design
+from fgslice.design.base import Design
+from fgslice.errors import SettingsError
+from fgslice.executor import map_ordered
+from fgslice.output import atomic_output, check_writable
+from fgslice.pipeline import slice_to_gcode
+from fgslice.settings import Settings, load_settings
+
+SUMMARY_COLUMNS = (
+    "name", "strategy", "colors", "zipper", "layers", "extruded_cm3", "purge_cm3",
+    "state_changes", "estimated_time_s", "slicing_s",
+)
+"""Columns of ``summary.csv`` and of the dicts :func:`run_sweep` returns (volumes cm^3, times s)."""
+
+
+@dataclass(frozen=True)
+class Combination:
+    """One point of the sweep: its file stem and its resolved settings."""
+
+    name: str
+    settings: Settings
+
+
+@dataclass(frozen=True)
+class _SweepJob:
+    """What every combination's task needs (shipped once to each Dask worker)."""
+
+    design: Design
+    out_dir: Path
+    jobs: int | None
+    comments: dict[str, str]
+
+
+def combinations(
+    stem: str,
+    *,
+    colors: Sequence[int],
+    zipper: Sequence[float] = (0.0,),
+    strategy: Sequence[int] | None = None,
+    profile: str | None = None,
+    overrides: dict[str, Any] | None = None,
+) -> list[Combination]:
+    """Resolve every combination's settings (all are validated before anything is sliced).
+
+    Raises:
+        SettingsError: an empty list, a duplicate name, or a value the settings refuse.
+    """
+    if not colors:
+        raise SettingsError("a sweep needs at least one palette size", hint="for example --colors 4,8,12,16")
+    if not zipper:
+        raise SettingsError("a sweep needs at least one zipper width", hint="use 0 for no zipper")
+    base = load_settings(profile, overrides)
+    strategies = list(strategy) if strategy else [base.strategy]
+    result: list[Combination] = []
+    for s in strategies:
+        for n in colors:
+            for z in zipper if s == 1 else (0.0,):
+                settings = load_settings(profile, {**(overrides or {}), "strategy": s, "colors": n, "zipper": z})
+                result.append(Combination(f"{stem}_c{settings.colors}_z{settings.zipper:g}_s{settings.strategy}", settings))
+    names = [c.name for c in result]
+    duplicates = sorted({n for n in names if names.count(n) > 1})
+    if duplicates:
+        raise SettingsError(f"the sweep lists the same combination twice: {', '.join(duplicates)}",
+                            hint="remove repeated palette sizes, zipper widths or strategies")
+    return result
+
+
+def _slice_combination(job: _SweepJob, combination: Combination) -> dict:
+    """Slice one combination into ``out_dir``; returns its summary row."""
+    gcode = job.out_dir / f"{combination.name}.gcode"
+    result = slice_to_gcode(job.design, combination.settings, gcode, jobs=job.jobs, comments=job.comments)
+    with atomic_output(gcode.with_suffix(".json")) as handle:
+        json.dump(result.stats, handle, indent=2, default=float)
+        handle.write("\n")
+    s = result.stats
+    return {
+        "name": combination.name,
+        "strategy": combination.settings.strategy,
+        "colors": combination.settings.colors,
+        "zipper": combination.settings.zipper,
+        "layers": s["layers"],
+        "extruded_cm3": round(s["extruded_mm3"] / 1000, 3),
+        "purge_cm3": round(s["purge_mm3"] / 1000, 3),
+        "state_changes": s["state_changes"],
+        "estimated_time_s": round(s["estimated_time_s"], 1),
+        "slicing_s": s["elapsed_s"],
+    }
+
+
+def run_sweep(
+    design_path: str | Path,
+    out_dir: str | Path,
+    *,
+    colors: Sequence[int],
+    zipper: Sequence[float] = (0.0,),
+    strategy: Sequence[int] | None = None,
+    profile: str | None = None,
+    overrides: dict[str, Any] | None = None,
+    materials: str | Path | None = None,
+    jobs: int | None = None,
+    scheduler: str | None = None,
+    progress: Callable[[dict], None] | None = None,
+) -> list[dict]:
+    """Slice ``design_path`` for every combination and write the G-code, statistics and
+    ``summary.csv`` into ``out_dir`` (created if missing).
+
+    Args:
+        design_path: the ``.vcad`` design.
+        out_dir: output folder.
+        colors: palette sizes N.
+        zipper: zipper widths beta, percent (strategy 1 only).
+        strategy: strategies to run; None keeps the profile's / overrides' strategy.
+        profile: built-in profile name or TOML file (None: the default profile).
+        overrides: other settings, as ``--set`` would give them (``{"walls": "3"}``).
+        materials: material library JSON for the design.
+        jobs: worker processes per combination when running locally (default: all cores).
+        scheduler: a Dask scheduler address; each combination becomes one task there.
+        progress: called with each combination's summary row as it finishes.
+
+    Returns:
+        One dict per combination, keys :data:`SUMMARY_COLUMNS`, in sweep order
+        (strategy, then colors, then zipper).
+
+    Raises:
+        FgsliceError: bad settings or design, an unwritable output, any slicing refusal.
+    """
+    design_path = Path(design_path)
+    out_dir = Path(out_dir)
+    todo = combinations(design_path.stem, colors=colors, zipper=zipper, strategy=strategy,
+                        profile=profile, overrides=overrides)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    for combination in todo:
+        for suffix in (".gcode", ".json"):
+            check_writable(out_dir / f"{combination.name}{suffix}", inputs=(design_path,))
+    summary = check_writable(out_dir / "summary.csv", inputs=(design_path,))
+    job = _SweepJob(
+        design=load_design(design_path, materials),
+        out_dir=out_dir.resolve(),
+        jobs=1 if scheduler else jobs,
+        comments={"design": str(design_path), "sweep": out_dir.name},
+    )
+    rows = []
+    for row in map_ordered(_slice_combination, job, todo, jobs=1, scheduler=scheduler, window=len(todo)):
+        rows.append(row)
+        if progress:
+            progress(row)
+    with atomic_output(summary) as handle:
+        writer = csv.DictWriter(handle, fieldnames=SUMMARY_COLUMNS, lineterminator="\n")
+        writer.writeheader()
+        writer.writerows(rows)
+    return rows
+
+
+def format_summary(rows: Sequence[dict]) -> str:
+    """The summary rows as an aligned text table (cm^3, s)."""
+    header = (f"{'combination':32s} {'layers':>6s} {'cm3':>9s} {'purge cm3':>9s} {'changes':>7s} "
+              f"{'print h':>8s} {'slice s':>8s}")
+    lines = [header, "-" * len(header)]
+    for r in rows:
+        lines.append(
+            f"{r['name']:32s} {r['layers']:6d} {r['extruded_cm3']:9.2f} {r['purge_cm3']:9.2f} "
+            f"{r['state_changes']:7d} {r['estimated_time_s'] / 3600:8.2f} {r['slicing_s']:8.2f}"
+        )
+    return "\n".join(lines)

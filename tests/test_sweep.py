@@ -1,0 +1,89 @@
+"""Sweeps: one G-code and one statistics file per combination, a summary that agrees with
+them, and the same bytes whether combinations run locally or as Dask tasks."""
+
+from __future__ import annotations
+
+import csv
+import json
+import re
+
+import pytest
+
+from fgslice.errors import SettingsError
+from fgslice.sweep import SUMMARY_COLUMNS, combinations, format_summary, run_sweep
+
+DISC = """
+fgrade(["x/24 + 0.5", "0.5 - x/24"], ["blue", "yellow"]) {
+    translate(0, 0, 0.6) { cylinder(12, 1.2); }
+}
+"""
+BASE = {"layer_height": "0.4", "walls": "2", "thumbnails": ""}
+
+
+@pytest.fixture
+def disc(tmp_path):
+    path = tmp_path / "disc.vcad"
+    path.write_text(DISC)
+    return path
+
+
+def _states(gcode: bytes) -> set[int]:
+    return {int(m) for m in re.findall(rb";STATE:(\d+)", gcode)}
+
+
+def test_local_sweep_writes_every_combination(tmp_path, disc, monkeypatch):
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000000")
+    seen = []
+    rows = run_sweep(disc, tmp_path / "out", colors=[2, 4], zipper=[0, 10], strategy=[1, 2],
+                     overrides=BASE, jobs=2, progress=seen.append)
+    names = [r["name"] for r in rows]
+    assert names == ["disc_c2_z0_s1", "disc_c2_z10_s1", "disc_c4_z0_s1", "disc_c4_z10_s1",
+                     "disc_c2_z0_s2", "disc_c4_z0_s2"]
+    assert seen == rows
+    with open(tmp_path / "out" / "summary.csv") as handle:
+        table = list(csv.DictReader(handle))
+    assert [t["name"] for t in table] == names
+    assert tuple(table[0]) == SUMMARY_COLUMNS
+    for row, line in zip(rows, table):
+        gcode = (tmp_path / "out" / f"{row['name']}.gcode").read_bytes()
+        stats = json.loads((tmp_path / "out" / f"{row['name']}.json").read_text())
+        assert stats["layers"] == row["layers"] == int(line["layers"]) == 3
+        assert gcode.count(b";LAYER_CHANGE") == 3
+        assert stats["colors"] == row["colors"]
+        assert _states(gcode) <= set(range(row["colors"]))
+        assert float(line["extruded_cm3"]) == pytest.approx(stats["extruded_mm3"] / 1000, abs=1e-3)
+        assert int(line["state_changes"]) == stats["state_changes"]
+    by_name = {r["name"]: r for r in rows}
+    # the gradient spans the whole range, so every color of the palette is printed
+    assert _states((tmp_path / "out" / "disc_c4_z0_s2.gcode").read_bytes()) == {0, 1, 2, 3}
+    assert by_name["disc_c4_z0_s1"]["state_changes"] > by_name["disc_c2_z0_s1"]["state_changes"]
+    # a zipper overlaps neighbouring colors' walls: the same part, more pieces
+    assert by_name["disc_c4_z10_s1"]["state_changes"] >= by_name["disc_c4_z0_s1"]["state_changes"]
+    text = format_summary(rows)
+    assert all(name in text for name in names)
+
+
+def test_dask_sweep_matches_local(tmp_path, disc, monkeypatch):
+    distributed = pytest.importorskip("distributed")
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000000")
+    local = run_sweep(disc, tmp_path / "local", colors=[3], strategy=[1, 2], overrides=BASE, jobs=1)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None, silence_logs=40) as cluster:
+        remote = run_sweep(disc, tmp_path / "dask", colors=[3], strategy=[1, 2], overrides=BASE,
+                           scheduler=cluster.scheduler_address)
+    assert [r["name"] for r in remote] == [r["name"] for r in local] == ["disc_c3_z0_s1", "disc_c3_z0_s2"]
+    for row in local:
+        a = (tmp_path / "local" / f"{row['name']}.gcode").read_bytes()
+        b = (tmp_path / "dask" / f"{row['name']}.gcode").read_bytes()
+        # only the sweep comment (the output folder's name) differs
+        assert a.replace(b"sweep = local", b"sweep = dask") == b
+
+
+def test_bad_sweeps_are_refused_before_slicing(tmp_path, disc):
+    with pytest.raises(SettingsError, match="at least one palette size"):
+        run_sweep(disc, tmp_path / "out", colors=[])
+    with pytest.raises(SettingsError, match="same combination twice"):
+        combinations("disc", colors=[4, 4])
+    with pytest.raises(SettingsError, match="colors"):
+        run_sweep(disc, tmp_path / "out", colors=[4, 0])
+    assert not (tmp_path / "out").exists()
