@@ -249,5 +249,16 @@ def calibrate_lookahead(profile, sets, output, measured_error, segment_length, b
     click.echo(text)
 
 
+@main.command("view")
+@click.argument("gcode", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--port", type=int, help="Port on 127.0.0.1 (default: a free one).")
+@click.option("--open", "open_browser", is_flag=True, help="Open the page in the default browser.")
+def view_command(gcode, port, open_browser):
+    """Show GCODE's toolpaths in 3D in a local browser page (Ctrl-C stops the server)."""
+    from fgslice.preview.viewer import serve
+
+    serve(gcode, port=port, open_browser=open_browser)
+
+
 if __name__ == "__main__":
     main()
