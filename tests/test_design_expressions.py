@@ -9,7 +9,7 @@ import pytest
 import scipy.special
 
 import fgslice.design.expressions as expressions
-from fgslice.design.expressions import CONSTANTS, FUNCTIONS, VARIABLES, compile_expression
+from fgslice.design.expressions import CONSTANTS, FUNCTIONS, VARIABLES, combine_expressions, compile_expression
 from fgslice.errors import DesignError, DesignSyntaxError, FieldError
 
 RNG = np.random.default_rng(7)
@@ -272,11 +272,11 @@ def test_derived_variables_are_computed_only_when_used(monkeypatch):
     def forbidden(*args, **kwargs):
         raise AssertionError("derived variable computed")
 
-    expr_xyz = compile_expression("x + y * z")
-    expr_rho = compile_expression("rho")
     monkeypatch.setattr(np, "hypot", forbidden)
     monkeypatch.setattr(np, "arctan2", forbidden)
     monkeypatch.setattr(np, "arccos", forbidden)
+    expr_xyz = compile_expression("x + y * z")
+    expr_rho = compile_expression("rho")
     np.testing.assert_allclose(expr_xyz(X, Y, Z), X + Y * Z)
     with pytest.raises(AssertionError, match="derived"):
         expr_rho(X, Y, Z)
@@ -333,6 +333,64 @@ def test_large_arrays_evaluated_in_blocks_match_numpy():
     gy = np.linspace(-5, 5, 300)[None, :]
     grid = compile_expression("phi + 0.5 z")(gx, gy, 2.0)
     np.testing.assert_allclose(grid, np.arctan2(np.broadcast_to(gy, grid.shape), gx) + 1.0, rtol=1e-14)
+
+
+def test_group_computes_shared_subexpressions_once(monkeypatch):
+    calls = {"sin": 0, "cos": 0}
+
+    def counting(name, kernel):
+        def run(*args, **kwargs):
+            calls[name] += 1
+            return kernel(*args, **kwargs)
+
+        return run
+
+    monkeypatch.setitem(expressions._KERNELS, "sin", counting("sin", np.sin))
+    monkeypatch.setitem(expressions._KERNELS, "cos", counting("cos", np.cos))
+    field = "(1+sin(0.025*x+0.0375*y)*cos(0.0375*x-0.025*y))/2"
+    first = compile_expression(field)
+    second = compile_expression(f"1-({field})")
+    swapped = compile_expression("(cos(x*0.0375-y*0.025)*sin(y*0.0375+0.025*x)+1)/2")
+    group = combine_expressions([first, second, swapped])
+    x, y = RNG.uniform(-100, 100, (2, 1000))
+    a, b, c = group(x, y, 0.0)
+    assert calls == {"sin": 1, "cos": 1}
+    reference = (1 + np.sin(0.025 * x + 0.0375 * y) * np.cos(0.0375 * x - 0.025 * y)) / 2
+    np.testing.assert_allclose(a, reference, rtol=1e-14)
+    np.testing.assert_allclose(b, 1 - reference, rtol=1e-14)
+    np.testing.assert_allclose(c, reference, rtol=1e-14)
+    assert not np.shares_memory(a, c)
+    assert group.variables == frozenset({"x", "y"})
+
+
+def test_group_members_keep_their_values_and_errors():
+    group = combine_expressions([compile_expression("rho"), compile_expression("x"), compile_expression("2"), compile_expression("d + rho")])
+    values = group(X, Y, Z, d=np.ones_like(X))
+    np.testing.assert_allclose(values[0], np.hypot(X, Y))
+    np.testing.assert_array_equal(values[1], X)
+    assert not np.shares_memory(values[1], X)
+    np.testing.assert_array_equal(values[2], np.full_like(X, 2.0))
+    np.testing.assert_allclose(values[3], np.hypot(X, Y) + 1)
+    with pytest.raises(DesignError, match="'d'"):
+        group(X, Y, Z)
+    clone = pickle.loads(pickle.dumps(group))
+    np.testing.assert_allclose(clone(X, Y, Z, d=0.0)[3], np.hypot(X, Y))
+
+
+def test_broadcast_inputs_stay_small_until_combined(monkeypatch):
+    seen = []
+
+    def recording(x, out=None):
+        seen.append(np.shape(x))
+        return np.sin(x, out=out)
+
+    monkeypatch.setitem(expressions._KERNELS, "sin", recording)
+    xs = np.linspace(-50, 50, 300)[None, :]
+    ys = np.linspace(-50, 50, 500)[:, None]
+    values = compile_expression("sin(0.1*x) * cos(y) + z")(xs, ys, 2.0)
+    assert seen and all(shape == (1, 300) for shape in seen)
+    np.testing.assert_allclose(values, np.sin(0.1 * xs) * np.cos(ys) + 2.0, rtol=1e-14)
+    assert values.shape == (500, 300)
 
 
 def test_expression_survives_pickling():

@@ -166,6 +166,21 @@ def test_fractions_keep_the_broadcast_shape():
     assert design.sdf(np.zeros((3, 1)), np.zeros((1, 4)), 0.0).shape == (3, 4)
 
 
+def test_grid_fractions_match_pointwise_fractions():
+    fields = ["(1+sin(0.1*x+0.2*y)*cos(0.2*x-0.1*y))/2", "1-(1+sin(0.1*x+0.2*y)*cos(0.2*x-0.1*y))/2"]
+    part = api.translate((1, 2, 3), api.fgrade(fields, ["red", "blue"], api.translate((0, 0, 1), api.sphere(40))))
+    for node in (part.children[0], part):
+        design = api.design(node)
+        xs = np.linspace(-40, 40, 410)[None, :]
+        ys = np.linspace(-30, 30, 190)[:, None]
+        grid = design.fractions(xs, ys, 5.0)
+        gx, gy = np.broadcast_arrays(xs, ys)
+        flat = design.fractions(gx.ravel(), gy.ravel(), np.full(gx.size, 5.0))
+        assert grid.shape == (190, 410, 2)
+        np.testing.assert_allclose(grid.reshape(-1, 2), flat, rtol=0, atol=1e-15)
+        assert np.ptp(grid[..., 0]) > 0.5
+
+
 def area(node, z):
     geom = api.design(node).section(z)
     assert isinstance(geom, shapely.MultiPolygon) and geom.is_valid

@@ -1,8 +1,11 @@
 """The safe expression language of design files, compiled to vectorized numpy code.
 
 An expression such as ``(1+sin(0.025*x+0.0375*y)*cos(0.0375*x-0.025*y))/2`` is parsed
-by a LALR grammar (lark, built once at import) and compiled to a flat list of numpy
-steps over a register file. Nothing of the text is ever passed to ``eval``/``exec``:
+by a LALR grammar (lark, built once at import) into a hash-consed graph (equal
+subexpressions are one node; constants are folded), which is scheduled into a flat list
+of numpy steps over a register file that reuse dead temporaries in place. Several
+expressions combined with :func:`combine_expressions` share one graph, so what they have
+in common is computed once. Nothing of the text is ever passed to ``eval``/``exec``:
 only the names in :data:`FUNCTIONS`, :data:`VARIABLES` and :data:`CONSTANTS` exist.
 
 Conventions: coordinates in mm, angles in radians; evaluation is float64 and the result
@@ -20,7 +23,7 @@ caret lines up with the file column).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
@@ -38,7 +41,9 @@ __all__ = [
     "MAX_LENGTH",
     "VARIABLES",
     "Expression",
+    "ExpressionGroup",
     "Function",
+    "combine_expressions",
     "compile_expression",
 ]
 
@@ -362,144 +367,212 @@ def _syntax_error(src: _Source, exc: lark.exceptions.UnexpectedInput) -> Fgslice
     return src.error(DesignSyntaxError, f"unexpected {what}", offset, hint)
 
 
-# -- compilation to a register program ---------------------------------------------------
-
-# Fixed registers: the broadcast shape, then the variables. Constants and temporaries
-# follow. Every non-constant value has the full broadcast shape and dtype float64.
-_SHAPE = 0
-_SLOTS = {"x": 1, "y": 2, "z": 3, "d": 4, "rho": 5, "phi": 6, "r": 7, "phis": 8}
-_FIRST_FREE = 9
+# -- compilation to a shared, hash-consed program -----------------------------------------
 
 _BLOCK = 1 << 16
 """Points evaluated per block: large arrays are processed in blocks of whole rows."""
 
-
-@dataclass(frozen=True, slots=True)
-class _Val:
-    """A compiled operand: a constant known now, or a register filled at run time.
-
-    ``fresh`` registers hold temporaries this program owns: the one step that consumes
-    them may write its result into them (numpy ``out=``) or release them.
-    """
-
-    const: float | None = None
-    slot: int = -1
-    fresh: bool = False
+_LEAVES = ("x", "y", "z", "d")
+"""Input variables; the other variables are derived from them inside the program."""
 
 
-_Step = Callable[[list], None]
-
-
-def _step(kernel: Callable, srcs: tuple[int, ...], dst: int, out: int | None, free: tuple[int, ...]) -> _Step:
-    """One program step: ``r[dst] = kernel(*r[srcs], out=...)``, then release ``free``.
-
-    ``out`` is the register whose array receives the result in place, or None to write
-    into a new array of the broadcast shape.
-    """
-    if out is None:
-
-        def run(r: list) -> None:
-            r[dst] = kernel(*[r[s] for s in srcs], out=np.empty(r[_SHAPE]))
-            for s in free:
-                r[s] = None
-
-    else:
-
-        def run(r: list) -> None:
-            r[dst] = kernel(*[r[s] for s in srcs], out=r[out])
-            for s in free:
-                r[s] = None
-
-    return run
-
-
-def _select_step(srcs: tuple[int, int, int], dst: int, free: tuple[int, ...]) -> _Step:
-    """A step choosing between two values by a condition (no in-place form)."""
-
-    def run(r: list) -> None:
-        r[dst] = _select(r[srcs[0]], r[srcs[1]], r[srcs[2]])
-        for s in free:
-            r[s] = None
-
-    return run
-
-
-def _rho(r: list) -> None:
-    """rho = sqrt(x^2 + y^2), mm."""
-    r[_SLOTS["rho"]] = np.hypot(r[_SLOTS["x"]], r[_SLOTS["y"]])
-
-
-def _phi(r: list) -> None:
+def _azimuth(y, x, out=None):
     """phi = atan2(y, x) in (-pi, pi], radians."""
-    phi = np.arctan2(r[_SLOTS["y"]], r[_SLOTS["x"]])
+    phi = np.arctan2(y, x, out=out)
     np.copyto(phi, np.pi, where=phi <= -np.pi)  # atan2(-0.0, x<0) is -pi; the range is (-pi, pi]
-    r[_SLOTS["phi"]] = phi
+    return phi
 
 
-def _r(r: list) -> None:
-    """r = sqrt(x^2 + y^2 + z^2), mm (reuses rho when computed)."""
-    planar = r[_SLOTS["rho"]] if r[_SLOTS["rho"]] is not None else np.hypot(r[_SLOTS["x"]], r[_SLOTS["y"]])
-    r[_SLOTS["r"]] = np.hypot(planar, r[_SLOTS["z"]])
-
-
-def _phis(r: list) -> None:
+def _polar(z, radius):
     """phis = acos(z / r) in [0, pi], radians; 0 at the origin."""
-    radius = r[_SLOTS["r"]]
-    cosine = np.ones(r[_SHAPE])  # acos(1) = 0 at the origin
-    np.divide(r[_SLOTS["z"]], radius, out=cosine, where=radius > 0)
+    cosine = np.ones(np.broadcast_shapes(np.shape(z), np.shape(radius)))  # acos(1) = 0 at the origin
+    np.divide(z, radius, out=cosine, where=radius > 0)
     np.clip(cosine, -1.0, 1.0, out=cosine)
-    r[_SLOTS["phis"]] = np.arccos(cosine, out=cosine)
+    return np.arccos(cosine, out=cosine)
 
 
-# Derived variables in dependency order (phis needs r; r reuses rho when present).
-_DERIVED: list[tuple[str, _Step]] = [("rho", _rho), ("phi", _phi), ("r", _r), ("phis", _phis)]
+_COMMUTATIVE = frozenset(
+    [np.add, np.multiply, np.maximum, np.minimum, np.hypot, np.equal, np.not_equal, np.logical_and, np.logical_or]
+)
+"""Kernels whose two arguments may be swapped (sorted so ``a*b`` and ``b*a`` are shared)."""
+
+_BOOLEAN = frozenset(
+    [np.less, np.less_equal, np.greater, np.greater_equal, np.equal, np.not_equal, np.logical_and, np.logical_or, _not, _truth]
+)
+"""Kernels returning booleans: they are given a float64 output so values stay float64."""
+
+_NO_OUT = frozenset([_select, _polar])
+"""Kernels that allocate their own result (no ``out=``)."""
+
+
+class _Graph:
+    """A hash-consed expression DAG: equal operations on equal operands are one node.
+
+    Node ``i`` is ``("var", name)``, ``("const", value)`` or ``(kernel, argument ids)``;
+    arguments always precede their users, so node order is a valid evaluation order.
+    Operations on constants only are folded into constants.
+    """
+
+    def __init__(self) -> None:
+        self.nodes: list[tuple] = []
+        self._index: dict[tuple, int] = {}
+
+    def _add(self, key: tuple, node: tuple) -> int:
+        found = self._index.get(key)
+        if found is None:
+            found = self._index[key] = len(self.nodes)
+            self.nodes.append(node)
+        return found
+
+    def const_value(self, i: int) -> float | None:
+        """The value of node ``i`` when it is a constant, else None."""
+        node = self.nodes[i]
+        return node[1] if node[0] == "const" else None
+
+    def const(self, value: float) -> int:
+        return self._add(("const", float(value).hex()), ("const", float(value)))
+
+    def var(self, name: str) -> int:
+        """The node of variable ``name`` (canonical); derived variables are built from x, y, z."""
+        if name in _LEAVES:
+            return self._add(("var", name), ("var", name))
+        if name == "rho":
+            return self.apply(np.hypot, (self.var("x"), self.var("y")))
+        if name == "phi":
+            return self.apply(_azimuth, (self.var("y"), self.var("x")))
+        if name == "r":
+            return self.apply(np.hypot, (self.var("rho"), self.var("z")))
+        return self.apply(_polar, (self.var("z"), self.var("r")))
+
+    def apply(self, kernel: Callable, args: Sequence[int]) -> int:
+        """The node of ``kernel(*args)``: folded when every argument is a constant."""
+        values = [self.const_value(a) for a in args]
+        if all(v is not None for v in values):
+            with np.errstate(all="ignore"):
+                return self.const(float(kernel(*values)))
+        args = tuple(sorted(args)) if kernel in _COMMUTATIVE else tuple(args)
+        return self._add((kernel, args), (kernel, args))
+
+    def merge(self, other: _Graph) -> list[int]:
+        """Add every node of ``other`` to this graph; returns the new id of each."""
+        ids: list[int] = []
+        for node in other.nodes:
+            if node[0] == "var":
+                ids.append(self.var(node[1]))
+            elif node[0] == "const":
+                ids.append(self.const(node[1]))
+            else:
+                ids.append(self.apply(node[0], [ids[a] for a in node[1]]))
+        return ids
+
+
+class _Program:
+    """The steps computing the ``roots`` of a graph, each shared value computed once.
+
+    Registers are node ids. A step writes its result into an argument it consumes last
+    (``out=``) when that argument already has the block's full shape; otherwise numpy
+    allocates the natural broadcast shape, so values depending only on broadcast inputs
+    (a grid's row of x, a single z) stay as small as their inputs.
+    """
+
+    def __init__(self, graph: _Graph, roots: Sequence[int]) -> None:
+        self.roots = tuple(roots)
+        live = set(self.roots)
+        for i in range(len(graph.nodes) - 1, -1, -1):
+            node = graph.nodes[i]
+            if i in live and node[0] not in ("var", "const"):
+                live.update(node[1])
+        uses = dict.fromkeys(live, 0)
+        for root in self.roots:
+            uses[root] += 1
+        for i in live:
+            node = graph.nodes[i]
+            if node[0] not in ("var", "const"):
+                for a in node[1]:
+                    uses[a] += 1
+        self.template: list = [None] * len(graph.nodes)
+        self.temporary = [False] * len(graph.nodes)
+        self.leaves = {}
+        self.steps: list[tuple] = []
+        for i in sorted(live):
+            node = graph.nodes[i]
+            if node[0] == "const":
+                self.template[i] = node[1]
+                continue
+            if node[0] == "var":
+                self.leaves[node[1]] = i
+                continue
+            kernel, args = node
+            self.temporary[i] = True
+            for a in args:
+                uses[a] -= 1
+            dead = tuple(a for a in dict.fromkeys(args) if uses[a] == 0 and self.temporary[a])
+            mode = 2 if kernel in _NO_OUT else 1 if kernel in _BOOLEAN else 0
+            self.steps.append((kernel, args, i, dead, mode))
+
+    def run(self, inputs: Mapping[str, np.ndarray], shape: tuple[int, ...]) -> list:
+        """The roots' values on one block (natural broadcast shapes, at most ``shape``)."""
+        r = self.template.copy()
+        for name, i in self.leaves.items():
+            r[i] = inputs[name]
+        with np.errstate(all="ignore"):
+            for kernel, args, dst, dead, mode in self.steps:
+                values = [r[a] for a in args]
+                if mode == 2:
+                    r[dst] = kernel(*values)
+                else:
+                    out = None
+                    for a in dead:
+                        if r[a].shape == shape:
+                            out = r[a]
+                            break
+                    if out is None and mode == 1:
+                        out = np.empty(np.broadcast_shapes(*(np.shape(v) for v in values)))
+                    r[dst] = kernel(*values) if out is None else kernel(*values, out=out)
+                for a in dead:
+                    r[a] = None
+        return [r[i] for i in self.roots]
+
+    def evaluate(self, coords: Mapping[str, np.ndarray], shape: tuple[int, ...]) -> list[np.ndarray]:
+        """New float64 arrays of ``shape``, one per root, from broadcast-compatible ``coords``."""
+        ndim = max(len(shape), 1)
+        full = shape if shape else (1,)
+        inputs = {name: values.reshape((1,) * (ndim - values.ndim) + values.shape) for name, values in coords.items()}
+        row = math.prod(full[1:])
+        if full[0] * row <= _BLOCK:
+            results = self.run(inputs, full)
+            outs = []
+            for i, value in zip(self.roots, results, strict=True):
+                owned = self.temporary[i] and value.shape == full and not any(value is o for o in outs)
+                outs.append(value if owned else np.array(np.broadcast_to(value, full), dtype=np.float64))
+            return [o.reshape(shape) for o in outs]
+        # Blocks of whole rows keep the temporaries in cache and the allocations small;
+        # inputs constant along the first axis are passed whole.
+        outs = [np.empty(full) for _ in self.roots]
+        rows = max(1, _BLOCK // max(row, 1))
+        for start in range(0, full[0], rows):
+            block = slice(start, start + rows)
+            part = {name: v[block] if v.shape[0] > 1 else v for name, v in inputs.items()}
+            block_shape = outs[0][block].shape
+            for out, value in zip(outs, self.run(part, block_shape), strict=True):
+                out[block] = value
+        return [o.reshape(shape) for o in outs]
 
 
 class _Compiler:
-    """Walks the parse tree (iteratively) and emits steps; folds constant operations."""
+    """Walks the parse tree (iteratively) into a hash-consed graph; folds constants."""
 
     def __init__(self, src: _Source) -> None:
         self.src = src
-        self.steps: list[_Step] = []
-        self.template: list = [None] * _FIRST_FREE
+        self.graph = _Graph()
         self.used: set[str] = set()
         self.d_offset: int | None = None
 
-    # registers
-    def _new(self) -> int:
-        self.template.append(None)
-        return len(self.template) - 1
+    def emit(self, kernel: Callable, args: list[int]) -> int:
+        """The node of ``kernel(*args)`` (a ufunc-like callable taking ``out=``)."""
+        return self.graph.apply(kernel, args)
 
-    def _slot(self, v: _Val) -> int:
-        if v.const is None:
-            return v.slot
-        slot = self._new()
-        self.template[slot] = v.const
-        return slot
-
-    def emit(self, kernel: Callable, args: list[_Val]) -> _Val:
-        """Apply ``kernel`` (a ufunc-like callable taking ``out=``) to ``args``."""
-        if all(a.const is not None for a in args):
-            with np.errstate(all="ignore"):
-                return _Val(const=float(kernel(*[a.const for a in args])))
-        srcs = tuple(self._slot(a) for a in args)
-        fresh = [a.slot for a in args if a.fresh]
-        dst = fresh[0] if fresh else self._new()
-        free = tuple(s for s in dict.fromkeys(fresh) if s != dst)
-        self.steps.append(_step(kernel, srcs, dst, dst if fresh else None, free))
-        return _Val(slot=dst, fresh=True)
-
-    def select(self, c: _Val, a: _Val, b: _Val) -> _Val:
-        """``a`` where ``c`` is nonzero, else ``b``."""
-        if c.const is not None and a.const is not None and b.const is not None:
-            return _Val(const=float(_select(c.const, a.const, b.const)))
-        srcs = (self._slot(c), self._slot(a), self._slot(b))
-        dst = self._new()
-        free = tuple(v.slot for v in (c, a, b) if v.fresh)
-        self.steps.append(_select_step(srcs, dst, free))
-        return _Val(slot=dst, fresh=True)
-
-    def fold(self, kernels: list[Callable], operands: list[_Val]) -> _Val:
+    def fold(self, kernels: list[Callable], operands: list[int]) -> int:
         """Left fold: ``((a0 k0 a1) k1 a2) ...`` as a flat run of steps."""
         acc = operands[0]
         for kernel, operand in zip(kernels, operands[1:], strict=True):
@@ -507,7 +580,7 @@ class _Compiler:
         return acc
 
     # leaves
-    def number(self, token: lark.Token) -> _Val:
+    def number(self, token: lark.Token) -> int:
         value = float(token.value)
         if not math.isfinite(value):
             text = self.src.text[token.start_pos : token.end_pos]
@@ -515,18 +588,18 @@ class _Compiler:
             raise self.src.error(
                 DesignSyntaxError, f"number too large: '{shown}'", token.start_pos, "numbers must be below about 1.8e308"
             )
-        return _Val(const=value)
+        return self.graph.const(value)
 
-    def name(self, token: lark.Token) -> _Val:
+    def name(self, token: lark.Token) -> int:
         name = token.value
         if name in CONSTANTS:
-            return _Val(const=CONSTANTS[name])
+            return self.graph.const(CONSTANTS[name])
         if name in VARIABLES:
             canonical = _CANONICAL.get(name, name)
             self.used.add(canonical)
             if canonical == "d" and self.d_offset is None:
                 self.d_offset = token.start_pos
-            return _Val(slot=_SLOTS[canonical])
+            return self.graph.var(canonical)
         original = self.src.text[token.start_pos : token.end_pos]
         if name in FUNCTIONS:
             raise self.src.error(
@@ -539,7 +612,7 @@ class _Compiler:
         raise self.src.error(DesignError, f"unknown variable '{original}'", token.start_pos, hint)
 
     # operations
-    def call(self, token: lark.Token, args: list[_Val]) -> _Val:
+    def call(self, token: lark.Token, args: list[int]) -> int:
         name = token.value[:-1].rstrip(" \t\r\n")
         shown = self.src.text[token.start_pos : token.start_pos + len(name)]
         if name not in FUNCTIONS:
@@ -568,20 +641,20 @@ class _Compiler:
                 f"write {function.signature}",
             )
         if name == "if":
-            return self.select(*args)
+            return self.emit(_select, args)
         if name == "avg":
-            return self.emit(np.divide, [self.fold([np.add] * (n - 1), args), _Val(const=float(n))])
+            return self.emit(np.divide, [self.fold([np.add] * (n - 1), args), self.graph.const(float(n))])
         if function.variadic:
             return self.fold([_KERNELS[name]] * (n - 1), args)
         return self.emit(_KERNELS[name], args)
 
-    def node(self, tree: lark.Tree, args: list[_Val]) -> _Val:
+    def node(self, tree: lark.Tree, args: list[int]) -> int:
         kind = tree.data
         children = tree.children
         if kind == "call":
             return self.call(children[0], args)
         if kind == "ternary":
-            return self.select(*args)
+            return self.emit(_select, args)
         if kind in ("sum", "product"):
             ops = [_BINARY[c.value] for c in children if isinstance(c, lark.Token) and c.type in ("ADDOP", "MULOP")]
             return self.fold(ops, args)
@@ -603,9 +676,9 @@ class _Compiler:
             return self.fold([np.logical_or] * (len(args) - 1), args)
         raise AssertionError(f"grammar rule without a compiler: {kind}")
 
-    def compile(self, root: lark.Tree | lark.Token) -> _Val:
+    def compile(self, root: lark.Tree | lark.Token) -> int:
         """Post-order walk with an explicit stack (no recursion), checking the depth."""
-        values: list[_Val] = []
+        values: list[int] = []
         stack: list[tuple[lark.Tree | lark.Token, int, bool]] = [(root, 0, False)]
         while stack:
             item, depth, expanded = stack.pop()
@@ -655,7 +728,7 @@ class Expression:
         file, line, column: where the text starts (for messages).
     """
 
-    __slots__ = ("text", "variables", "file", "line", "column", "_steps", "_template", "_result", "_d_offset")
+    __slots__ = ("text", "variables", "file", "line", "column", "_graph", "_root", "_program", "_d_offset")
 
     def __init__(
         self,
@@ -664,9 +737,8 @@ class Expression:
         file: str | None,
         line: int,
         column: int,
-        steps: list[_Step],
-        template: list,
-        result: _Val,
+        graph: _Graph,
+        root: int,
         d_offset: int | None,
     ) -> None:
         self.text = text
@@ -674,9 +746,9 @@ class Expression:
         self.file = file
         self.line = line
         self.column = column
-        self._steps = steps
-        self._template = template
-        self._result = result
+        self._graph = graph
+        self._root = root
+        self._program = _Program(graph, [root])
         self._d_offset = d_offset
 
     def __repr__(self) -> str:
@@ -688,6 +760,14 @@ class Expression:
     def _source(self) -> _Source:
         return _Source(self.text, self.file, self.line, self.column)
 
+    def _missing_d(self) -> FgsliceError:
+        return self._source().error(
+            DesignError,
+            "'d' (the signed distance of the fgrade's child) is not available here",
+            self._d_offset or 0,
+            "use d only in the material expressions of an fgrade",
+        )
+
     def __call__(self, x, y, z, d=None) -> np.ndarray:
         """Values at the points ``(x, y, z)`` (mm; broadcast-compatible arrays or scalars).
 
@@ -695,43 +775,10 @@ class Expression:
         ``'d' in self.variables``. Returns a new float64 array of the broadcast shape.
         NaN/inf results are returned as such; see :meth:`evaluate_checked`.
         """
-        coords = {"x": np.asarray(x, dtype=np.float64), "y": np.asarray(y, dtype=np.float64)}
-        coords["z"] = np.asarray(z, dtype=np.float64)
-        if d is not None:
-            coords["d"] = np.asarray(d, dtype=np.float64)
-        elif "d" in self.variables:
-            raise self._source().error(
-                DesignError,
-                "'d' (the signed distance of the fgrade's child) is not available here",
-                self._d_offset or 0,
-                "use d only in the material expressions of an fgrade",
-            )
-        shape = np.broadcast_shapes(*(a.shape for a in coords.values()))
-        if self._result.const is not None:
-            return np.full(shape, self._result.const)
-        inputs = [(_SLOTS[name], np.broadcast_to(values, shape)) for name, values in coords.items()]
-        row = math.prod(shape[1:])
-        if not shape or shape[0] * row <= _BLOCK:
-            return self._run(inputs, shape)
-        # Blocks of whole rows keep the temporaries in cache and the allocations small.
-        out = np.empty(shape)
-        rows = max(1, _BLOCK // max(row, 1))
-        for start in range(0, shape[0], rows):
-            block = slice(start, start + rows)
-            out[block] = self._run([(slot, v[block]) for slot, v in inputs], out[block].shape)
-        return out
-
-    def _run(self, inputs: list[tuple[int, np.ndarray]], shape: tuple[int, ...]) -> np.ndarray:
-        """Run the program on one block of broadcast input views of ``shape``."""
-        r = self._template.copy()
-        r[_SHAPE] = shape
-        for slot, values in inputs:
-            r[slot] = values
-        with np.errstate(all="ignore"):
-            for step in self._steps:
-                step(r)
-        result = r[self._result.slot]
-        return result if self._result.fresh else np.array(result, dtype=np.float64)
+        if d is None and "d" in self.variables:
+            raise self._missing_d()
+        coords, shape = _coordinates(x, y, z, d)
+        return self._program.evaluate(coords, shape)[0]
 
     def evaluate_checked(self, x, y, z, d=None) -> np.ndarray:
         """Like calling the expression, but raise :class:`FieldError` on NaN or inf.
@@ -762,6 +809,57 @@ class Expression:
             "guard with max(..., 1e-9) or clamp(lo, x, hi)",
             source_line=self._source().source_line(line),
         )
+
+
+class ExpressionGroup:
+    """Several expressions evaluated together, every common subexpression computed once.
+
+    With ``a = "(1+sin(x)*cos(y))/2"`` and ``b = "1-(1+sin(x)*cos(y))/2"`` the sine,
+    cosine, product and halving are computed once and ``b`` costs one subtraction.
+    Built by :func:`combine_expressions`.
+
+    Attributes:
+        expressions: the member expressions, in order.
+        variables: the union of their variables.
+    """
+
+    __slots__ = ("expressions", "variables", "_program")
+
+    def __init__(self, expressions: Sequence[Expression]) -> None:
+        self.expressions = tuple(expressions)
+        self.variables = frozenset().union(*(e.variables for e in self.expressions))
+        graph = _Graph()
+        roots = [graph.merge(e._graph)[e._root] for e in self.expressions]
+        self._program = _Program(graph, roots)
+
+    def __repr__(self) -> str:
+        return f"ExpressionGroup({[e.text for e in self.expressions]!r})"
+
+    def __reduce__(self):
+        return (combine_expressions, (self.expressions,))
+
+    def __call__(self, x, y, z, d=None) -> list[np.ndarray]:
+        """The members' values at the points (as :meth:`Expression.__call__`), one new array each."""
+        if d is None:
+            for e in self.expressions:
+                if "d" in e.variables:
+                    raise e._missing_d()
+        coords, shape = _coordinates(x, y, z, d)
+        return self._program.evaluate(coords, shape)
+
+
+def combine_expressions(expressions: Sequence[Expression]) -> ExpressionGroup:
+    """One program evaluating all ``expressions`` with shared subexpressions computed once."""
+    return ExpressionGroup(expressions)
+
+
+def _coordinates(x, y, z, d) -> tuple[dict[str, np.ndarray], tuple[int, ...]]:
+    """float64 arrays of the inputs (``d`` when given) and their broadcast shape."""
+    coords = {"x": np.asarray(x, dtype=np.float64), "y": np.asarray(y, dtype=np.float64)}
+    coords["z"] = np.asarray(z, dtype=np.float64)
+    if d is not None:
+        coords["d"] = np.asarray(d, dtype=np.float64)
+    return coords, np.broadcast_shapes(*(a.shape for a in coords.values()))
 
 
 def _recompile(text: str, file: str | None, line: int, column: int) -> Expression:
@@ -801,18 +899,5 @@ def compile_expression(text: str, *, file: str | Path | None = None, line: int =
     except lark.exceptions.UnexpectedInput as exc:
         raise _syntax_error(src, exc) from None
     compiler = _Compiler(src)
-    result = compiler.compile(tree)
-    used = compiler.used
-    needed = used | {"r"} if "phis" in used else used
-    steps = [run for name, run in _DERIVED if name in needed]
-    return Expression(
-        text,
-        frozenset(used),
-        src.file,
-        line,
-        column,
-        steps + compiler.steps,
-        compiler.template,
-        result,
-        compiler.d_offset,
-    )
+    root = compiler.compile(tree)
+    return Expression(text, frozenset(compiler.used), src.file, line, column, compiler.graph, root, compiler.d_offset)

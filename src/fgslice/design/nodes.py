@@ -71,7 +71,8 @@ class Field:
 
     Callables take numpy arrays ``(x, y, z)`` — or ``(x, y, z, d)`` when they accept a
     fourth argument, ``d`` being the signed distance of the fgrade's child — and return an
-    array broadcastable to the points' shape (or a scalar).
+    array broadcastable to the points' shape (or a scalar). ``expression`` is the compiled
+    :class:`~fgslice.design.expressions.Expression` of a string field, None for a callable.
     """
 
     def __init__(self, source: str | Callable, where: Where = NOWHERE) -> None:
@@ -85,11 +86,13 @@ class Field:
             self.uses_d = "d" in self._fn.variables
             self.text = source
             self._callable = False
+            self.expression = self._fn
         elif callable(source):
             self._fn = source
             self.uses_d = _accepts_four(source)
             self.text = getattr(source, "__name__", "callable")
             self._callable = True
+            self.expression = None
         else:
             raise DesignError(
                 f"a material field must be an expression string or a callable, not {type(source).__name__}",
@@ -100,10 +103,10 @@ class Field:
         """The field's values at the points, broadcast to the points' shape (float64)."""
         if not self._callable:
             value = self._fn(x, y, z, d) if self.uses_d else self._fn(x, y, z)
-            return np.broadcast_to(np.asarray(value, dtype=float), np.shape(x))
+            return np.broadcast_to(np.asarray(value, dtype=float), np.broadcast_shapes(*map(np.shape, (x, y, z))))
         try:
             value = self._fn(x, y, z, d) if self.uses_d else self._fn(x, y, z)
-            return np.broadcast_to(np.asarray(value, dtype=float), np.shape(x))
+            return np.broadcast_to(np.asarray(value, dtype=float), np.broadcast_shapes(*map(np.shape, (x, y, z))))
         except FgsliceError:
             raise
         except Exception as exc:
@@ -222,6 +225,11 @@ class Node:
         """Whether :meth:`raw` ignores the coordinates (then transforms need not map them)."""
         return self.children[0].coordinate_free
 
+    @functools.cached_property
+    def passes_context(self) -> bool:
+        """Whether :meth:`raw` returns ``ctx`` unchanged wherever a context is given."""
+        return self.children[0].passes_context
+
 
 def sampled_section(node: Node, z: float, spacing: float) -> shapely.Geometry:
     """Outline of ``node`` at ``z`` by marching squares on its sdf at ``spacing`` mm."""
@@ -241,6 +249,10 @@ class Primitive(Node):
         self.material = material
 
     coordinate_free = True
+
+    @functools.cached_property
+    def passes_context(self) -> bool:
+        return self.material is None
 
     def raw(self, x, y, z, ctx, columns: Columns) -> np.ndarray:
         if self.material is None and ctx is not None:
@@ -463,6 +475,10 @@ class Union(Node):
     def coordinate_free(self) -> bool:
         return len(self.children) == 1 and self.children[0].coordinate_free
 
+    @functools.cached_property
+    def passes_context(self) -> bool:
+        return all(c.passes_context for c in self.children)
+
 
 class Intersection(Node):
     """Intersection of the children (max of their sdfs); materials of the first child."""
@@ -516,21 +532,24 @@ class Affine(Node):
         self.offset = np.asarray(offset, dtype=float)
         self._inverse = np.linalg.inv(self.matrix)
         self._stretch = np.linalg.svd(self.matrix, compute_uv=False)
+        # the inverse's nonzero terms per row: translations and scalings skip the zeros
+        self._rows = [[(j, float(c)) for j, c in enumerate(row) if c != 0] for row in self._inverse]
         self._body = children[0] if len(children) == 1 else Union(children, where)
 
     def local(self, x, y, z):
         """This node's coordinates mapped into the child's frame."""
-        m = self._inverse
-        px, py, pz = x - self.offset[0], y - self.offset[1], z - self.offset[2]
-        return (
-            m[0, 0] * px + m[0, 1] * py + m[0, 2] * pz,
-            m[1, 0] * px + m[1, 1] * py + m[1, 2] * pz,
-            m[2, 0] * px + m[2, 1] * py + m[2, 2] * pz,
-        )
+        p = [v - o if o != 0 else v for v, o in zip((x, y, z), self.offset)]
+        mapped = []
+        for row in self._rows:
+            terms = [p[j] if c == 1 else p[j] * c for j, c in row]
+            mapped.append(functools.reduce(np.add, terms))
+        return tuple(mapped)
 
     def sdf(self, x, y, z):
         # scaled by the map's smallest stretch so the result stays a lower bound on distance
-        return self._body.sdf(*self.local(x, y, z)) * float(self._stretch.min())
+        stretch = float(self._stretch.min())
+        distance = self._body.sdf(*self.local(x, y, z))
+        return distance if stretch == 1 else distance * stretch
 
     def _bounds(self):
         lo, hi = self._body.bounds()
@@ -559,6 +578,10 @@ class Affine(Node):
     @functools.cached_property
     def coordinate_free(self) -> bool:
         return self._body.coordinate_free
+
+    @functools.cached_property
+    def passes_context(self) -> bool:
+        return self._body.passes_context
 
 
 class Translate(Affine):
@@ -638,24 +661,43 @@ class Fgrade(Node):
     def _section(self, z, spacing):
         return self._body.section(z, spacing)
 
+    @functools.cached_property
+    def _group(self):
+        """All fields compiled together (shared subexpressions once), or None with callables."""
+        from fgslice.design.expressions import combine_expressions
+
+        expressions = [f.expression for f in self.fields]
+        return None if any(e is None for e in expressions) else combine_expressions(expressions)
+
     def own_fractions(self, x, y, z, columns: Columns) -> np.ndarray:
-        """This node's raw fractions ``(N, k)`` at 1-D points of its frame."""
+        """This node's raw fractions ``shape + (k,)`` at broadcast points of its frame."""
+        shape = np.broadcast_shapes(*map(np.shape, (x, y, z)))
         d = self._body.sdf(x, y, z) if any(f.uses_d for f in self.fields) else None
-        out = np.zeros((np.shape(x)[0], columns.k))
-        for field, name in zip(self.fields, self.materials):
-            out[:, columns.index[name.lower()]] = field(x, y, z, d)
+        if self._group is not None:
+            values = self._group(x, y, z, d)
+        else:
+            values = [field(x, y, z, d) for field in self.fields]
+        out = np.zeros(shape + (columns.k,))
+        cols = [columns.index[name.lower()] for name in self.materials]
+        for value, col in zip(values, cols):
+            out[..., col] = value
         if self.mode == "thresh":
-            clamped = np.clip(np.nan_to_num(out, nan=0.0), 0.0, 1.0)
-            cols = [columns.index[name.lower()] for name in self.materials]
-            winner = np.asarray(cols)[np.argmax(clamped[:, cols], axis=1)]
-            out = np.zeros_like(out)
-            out[np.arange(out.shape[0]), winner] = 1.0
+            clamped = np.clip(np.nan_to_num(out[..., cols], nan=0.0), 0.0, 1.0)
+            winner = np.asarray(cols)[np.argmax(clamped, axis=-1)]
+            out[...] = 0.0
+            np.put_along_axis(out, winner[..., None], 1.0, axis=-1)
         return out
 
     coordinate_free = False
+    passes_context = False
 
     def raw(self, x, y, z, ctx, columns):
         return _union_raw(self.children, x, y, z, self.own_fractions(x, y, z, columns), columns)
+
+    @functools.cached_property
+    def passes_children_context(self) -> bool:
+        """Whether every child keeps this node's fractions (then raw = own fractions)."""
+        return all(c.passes_context for c in self.children)
 
 
 # ----------------------------------------------------------------------------- design
@@ -671,18 +713,20 @@ def walk(root: Node):
 
 
 def normalized(raw: np.ndarray) -> np.ndarray:
-    """Fractions from raw values ``(N, k)``: NaN -> 0, clamp to [0, 1], divide by the sum.
+    """Fractions from raw values ``(..., k)``: NaN -> 0, clamp to [0, 1], divide by the sum.
 
-    Rows summing to 0 become the first material.
+    Rows summing to 0 become the first material. Returns a new array.
     """
-    f = np.clip(np.nan_to_num(raw, nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
-    total = f[:, 0].copy()
-    for j in range(1, f.shape[1]):  # column sums: faster than a reduction over a short axis
-        total += f[:, j]
+    f = np.fmax(raw, 0.0)  # fmax ignores NaN: NaN -> 0, -inf -> 0
+    np.fmin(f, 1.0, out=f)  # +inf -> 1
+    total = f[..., 0].copy()
+    for j in range(1, f.shape[-1]):  # column sums: faster than a reduction over a short axis
+        total += f[..., j]
     empty = total <= 0
-    f[empty, 0] = 1.0
-    total[empty] = 1.0
-    f /= total[:, None]
+    if empty.any():
+        f[empty, 0] = 1.0
+        total[empty] = 1.0
+    f /= total[..., None]
     return f
 
 
@@ -766,14 +810,35 @@ class NodeDesign(Design):
         return out.reshape(shape)
 
     def _per_chunk(self, x, y, z, normalize: bool) -> np.ndarray:
-        x, y, z = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (x, y, z)))
-        shape = x.shape
+        x, y, z = (np.asarray(v, dtype=float) for v in (x, y, z))
+        shape = np.broadcast_shapes(x.shape, y.shape, z.shape)
+        root = self.root
+        if isinstance(root, Fgrade) and root.passes_children_context and len(shape) > 1:
+            return self._broadcast_fractions(root, x, y, z, shape, normalize)
+        x, y, z = np.broadcast_arrays(x, y, z)
         x, y, z = x.ravel(), y.ravel(), z.ravel()
         out = np.empty((x.size, self.columns.k))
         for s in _chunks(x.size):
             raw = self.root.raw(x[s], y[s], z[s], None, self.columns)
             out[s] = normalized(raw) if normalize else raw
         return out.reshape(shape + (self.columns.k,))
+
+    def _broadcast_fractions(self, root: Fgrade, x, y, z, shape, normalize: bool) -> np.ndarray:
+        """Fractions of a root fgrade whose children keep its fractions, on N-D broadcast inputs.
+
+        Inputs are never expanded: blocks of whole rows are evaluated, and an input constant
+        along the first axis (a grid's row of x, a single z) is passed as it is.
+        """
+        ndim = len(shape)
+        x, y, z = (v.reshape((1,) * (ndim - v.ndim) + v.shape) for v in (x, y, z))
+        out = np.empty(shape + (self.columns.k,))
+        rows = max(1, CHUNK // max(1, math.prod(shape[1:])))
+        for start in range(0, shape[0], rows):
+            block = slice(start, start + rows)
+            raw = root.own_fractions(*(v[block] if v.shape[0] > 1 else v for v in (x, y, z)), self.columns)
+            raw = np.broadcast_to(raw, out[block].shape)
+            out[block] = normalized(raw) if normalize else raw
+        return out
 
     def raw_fractions(self, x, y, z) -> np.ndarray:
         """Raw (unclamped, unnormalized) fractions, shape ``broadcast + (k,)``."""
