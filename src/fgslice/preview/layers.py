@@ -249,9 +249,12 @@ def _check_size(size: tuple[int, int]) -> tuple[int, int]:
     return w, h
 
 
-def layer_png(source, layer: int, *, design: Design | None = None, placement: Placement | None = None,
-              show_travel: bool = False, size: tuple[int, int] = (1200, 900)) -> bytes:
-    """PNG bytes of one layer (see :func:`render_layer`)."""
+def layer_figure(source, layer: int, *, design: Design | None = None, placement: Placement | None = None,
+                 show_travel: bool = False, size: tuple[int, int] = (1200, 900)):
+    """The figure of one layer and its toolpath axes (bed mm to pixels: ``ax.transData``).
+
+    See :func:`render_layer` for the arguments.
+    """
     printout = load_printout(source)
     program = printout.program
     check_layer(program, layer)
@@ -283,6 +286,13 @@ def layer_png(source, layer: int, *, design: Design | None = None, placement: Pl
         dax.set_title(f"design field at z = {z_mid:g} mm", fontsize=10)
     legend_box = (w - m["legend"], m["bottom"], m["legend"] - 10, h - m["bottom"] - m["top"])
     _legend(fig, colors, keys, size, legend_box)
+    return fig, ax
+
+
+def layer_png(source, layer: int, *, design: Design | None = None, placement: Placement | None = None,
+              show_travel: bool = False, size: tuple[int, int] = (1200, 900)) -> bytes:
+    """PNG bytes of one layer (see :func:`render_layer`)."""
+    fig, _ = layer_figure(source, layer, design=design, placement=placement, show_travel=show_travel, size=size)
     return _png(fig)
 
 

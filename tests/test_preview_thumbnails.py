@@ -1,0 +1,71 @@
+"""Design thumbnails: sizes, colors from the design's field, and the round trip through G-code."""
+
+from __future__ import annotations
+
+import base64
+import io
+import re
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from fgslice.design import api
+from fgslice.errors import SettingsError
+from fgslice.pipeline import slice_to_gcode
+from fgslice.preview.thumbnails import parse_sizes, render_thumbnails, thumbnail_png
+from fgslice.settings import load_settings
+
+GRADIENT = api.design(api.fgrade(["x/40 + 0.5", "0.5 - x/40"], ["blue", "yellow"], api.rectprism(40, 20, 4)))
+
+
+def _rgba(png: bytes) -> np.ndarray:
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGBA"), dtype=float) / 255
+
+
+def test_parse_sizes():
+    assert parse_sizes("16x16, 220X124") == [(16, 16), (220, 124)]
+    assert parse_sizes("") == []
+    for bad in ("16x", "16*16", "0x10", "5000x10", "16x16,,abc"):
+        with pytest.raises(SettingsError):
+            parse_sizes(bad)
+
+
+def test_thumbnails_have_the_requested_sizes_and_are_not_uniform():
+    settings = load_settings(None, {"thumbnails": "16x16,220x124"})
+    thumbs = render_thumbnails(GRADIENT, settings)
+    assert [(w, h) for _, w, h in thumbs] == [(16, 16), (220, 124)]
+    for png, w, h in thumbs:
+        pixels = _rgba(png)
+        assert pixels.shape == (h, w, 4)
+        opaque = pixels[pixels[:, :, 3] > 0.99]
+        assert 0.05 < len(opaque) / (w * h) < 0.95
+        assert opaque[:, :3].std(axis=0).max() > 0.05
+    assert np.all(_rgba(thumbs[1][0])[0, 0] == 0)
+
+
+def test_thumbnail_colors_follow_the_gradient():
+    pixels = _rgba(thumbnail_png(GRADIENT, 220, 124))
+    opaque = pixels[:, :, 3] > 0.99
+    cols = np.flatnonzero(opaque.any(axis=0))
+    left = pixels[:, cols[0] : cols[0] + len(cols) // 4][opaque[:, cols[0] : cols[0] + len(cols) // 4]]
+    right = pixels[:, cols[-1] - len(cols) // 4 : cols[-1]][opaque[:, cols[-1] - len(cols) // 4 : cols[-1]]]
+    # seen from the front right, +x (blue: its fraction is x/40 + 0.5) is on the right of the picture
+    blueness = lambda p: float(np.mean(p[:, 2] - p[:, 0]))  # noqa: E731
+    assert blueness(right) > blueness(left) + 0.2
+
+
+def test_thumbnails_embedded_in_gcode_decode_to_pngs(tmp_path):
+    settings = load_settings(None, {"colors": "2", "skirt_loops": "0", "thumbnails": "32x24,120x90"})
+    design = api.design(api.fgrade(["x/20 + 0.5", "0.5 - x/20"], ["blue", "yellow"], api.rectprism(20, 10, 0.6)))
+    out = tmp_path / "part.gcode"
+    slice_to_gcode(design, settings, out, jobs=1, thumbnails=tuple(render_thumbnails(design, settings)))
+    text = out.read_text()
+    blocks = re.findall(r"; thumbnail begin (\d+)x(\d+) (\d+)\n(.*?)\n; thumbnail end", text, re.S)
+    assert [(int(w), int(h)) for w, h, _, _ in blocks] == [(32, 24), (120, 90)]
+    for w, h, length, body in blocks:
+        data = "".join(line[2:] for line in body.splitlines())
+        assert len(data) == int(length)
+        image = Image.open(io.BytesIO(base64.b64decode(data)))
+        assert image.size == (int(w), int(h))
+        assert np.asarray(image.convert("RGBA"))[:, :, 3].max() == 255
