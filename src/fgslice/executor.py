@@ -7,8 +7,11 @@ once (fork inheritance locally, a scattered object on Dask), then only layer ind
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
+import signal
+import threading
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor
@@ -21,7 +24,9 @@ _STATE: Any = None
 
 
 def _init_worker(state: Any) -> None:
+    """Keep the job state; leave Ctrl-C to the parent, which stops the pool and cleans up."""
     global _STATE
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     _STATE = state
 
 
@@ -70,16 +75,36 @@ def map_ordered(
         yield from _map_pool(fn, state, items, jobs, window)
 
 
+@contextlib.contextmanager
+def _sigint_held() -> Iterator[None]:
+    """Hold back Ctrl-C (SIGINT) while the first submissions fork the workers.
+
+    A SIGINT handled during a fork runs inside the interpreter's fork callbacks, which
+    swallow the KeyboardInterrupt, so the run would go on; held back, it is delivered
+    right after, as a KeyboardInterrupt the caller sees. Workers forked meanwhile inherit
+    the blocked signal and then ignore it (:func:`_init_worker`).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
 def _map_pool(fn, state, items, jobs, window) -> Iterator[Any]:
     context = multiprocessing.get_context("fork")
     pool = ProcessPoolExecutor(max_workers=jobs, mp_context=context, initializer=_init_worker, initargs=(state,))
     pending: deque = deque()
     try:
         iterator = iter(items)
-        for item in iterator:
-            pending.append(pool.submit(_call, fn, item))
-            if len(pending) >= window:
-                break
+        with _sigint_held():
+            for item in iterator:
+                pending.append(pool.submit(_call, fn, item))
+                if len(pending) >= window:
+                    break
         while pending:
             result = pending.popleft().result()
             for item in iterator:

@@ -8,6 +8,7 @@ removed and the previous destination (if any) is untouched.
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import tempfile
 from collections.abc import Iterator
@@ -53,7 +54,10 @@ def atomic_output(path: str | Path, mode: str = "w") -> Iterator[IO]:
     ``OSError`` while writing (a full disk, say) becomes :class:`OutputError`.
     """
     target = Path(path)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=target.resolve().parent)
+    try:
+        fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=target.resolve().parent)
+    except OSError as exc:
+        raise _output_error(target, exc) from None
     os.close(fd)
     tmp = Path(tmp_name)
     text = "b" not in mode
@@ -66,7 +70,18 @@ def atomic_output(path: str | Path, mode: str = "w") -> Iterator[IO]:
         os.replace(tmp, target)
     except OSError as exc:
         tmp.unlink(missing_ok=True)
-        raise OutputError(f"could not write '{target}': {exc.strerror or exc}; nothing was written") from None
+        raise _output_error(target, exc) from None
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+
+
+def _output_error(target: Path, exc: OSError) -> OutputError:
+    """The :class:`OutputError` for an ``OSError`` raised while writing ``target``."""
+    kept = " (the previous file is unchanged)" if target.exists() else ""
+    if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+        return OutputError(
+            f"the disk is full: could not write '{target}' ({exc.strerror or exc}); nothing was written{kept}",
+            hint=f"free space on the disk holding '{target.resolve().parent}', or write elsewhere with -o",
+        )
+    return OutputError(f"could not write '{target}': {exc.strerror or exc}; nothing was written{kept}")

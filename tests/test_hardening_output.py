@@ -1,0 +1,230 @@
+"""Nothing is lost: atomic output, the input never overwritten, and interrupted runs
+(Ctrl-C, a killed worker, a full disk) leave no partial file and say what happened."""
+
+from __future__ import annotations
+
+import errno
+import io
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+import fgslice.output
+import fgslice.pipeline
+from fgslice.cli import main
+from fgslice.design import api
+from fgslice.errors import OutputError, SliceError
+from fgslice.executor import map_ordered
+from fgslice.machine.gcode_reader import read_gcode
+from fgslice.output import atomic_output, check_writable
+from fgslice.pipeline import slice_to_gcode
+from fgslice.settings import load_settings
+
+FGSLICE = Path(sys.executable).with_name("fgslice")
+BOX = 'fgrade(["x/40 + 0.5", "0.5 - x/40"], ["blue", "yellow"]) { rectprism(40, 20, 1); }\n'
+OLD = "; an earlier print\nG1 X1 Y1\n"
+
+
+def box_design():
+    return api.design(api.fgrade(["x/40 + 0.5", "0.5 - x/40"], ["blue", "yellow"], api.rectprism(40, 20, 1)))
+
+
+def leftovers(folder: Path) -> list[str]:
+    return sorted(p.name for p in folder.iterdir() if p.name.endswith(".part"))
+
+
+def test_atomic_output_replaces_only_with_a_complete_file(tmp_path):
+    target = tmp_path / "out.gcode"
+    target.write_text(OLD)
+    with pytest.raises(ValueError):
+        with atomic_output(target) as handle:
+            handle.write("G1 X2 Y2\n" * 1000)
+            handle.flush()
+            assert Path(handle.name).stat().st_size == 9000 and target.read_text() == OLD
+            raise ValueError("stop half way")
+    assert target.read_text() == OLD and leftovers(tmp_path) == []
+    with atomic_output(target) as handle:
+        handle.write("G1 X3 Y3\n")
+    assert target.read_text() == "G1 X3 Y3\n" and leftovers(tmp_path) == []
+
+
+def test_input_is_never_the_output(tmp_path):
+    design = tmp_path / "part.vcad"
+    design.write_text(BOX)
+    (tmp_path / "link.gcode").symlink_to(design)
+    for output in (design, tmp_path / "link.gcode", tmp_path / "." / "part.vcad"):
+        with pytest.raises(OutputError, match="is the input file"):
+            check_writable(output, inputs=(design,))
+    result = CliRunner().invoke(main, ["slice", str(design), "-o", str(tmp_path / "link.gcode"), "--jobs", "1"])
+    assert result.exit_code == 2 and "refusing to overwrite it" in result.output
+    assert design.read_text() == BOX
+
+
+class _FullDisk(io.FileIO):
+    """A file that takes ``room`` bytes, then fails as a full disk does."""
+
+    room = 4096
+
+    def write(self, data):
+        if self.tell() + len(data) > self.room:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        return super().write(data)
+
+
+def _full_disk_open(path, mode="r", encoding=None, newline=None):
+    return io.TextIOWrapper(io.BufferedWriter(_FullDisk(path, "w")), encoding=encoding, newline=newline)
+
+
+def test_full_disk_is_reported_and_leaves_nothing(tmp_path, monkeypatch):
+    target = tmp_path / "out.gcode"
+    target.write_text(OLD)
+    monkeypatch.setattr(fgslice.output, "open", _full_disk_open, raising=False)
+    with pytest.raises(OutputError) as info:
+        slice_to_gcode(box_design(), load_settings(), target, jobs=1)
+    assert "the disk is full" in info.value.message and "nothing was written" in info.value.message
+    assert "previous file is unchanged" in info.value.message and "free space" in info.value.hint
+    assert target.read_text() == OLD and leftovers(tmp_path) == []
+
+
+@pytest.fixture
+def tiny_tmpfs(tmp_path):
+    """A 16 KiB tmpfs (needs root); skips where mounting is not allowed."""
+    mount = tmp_path / "small"
+    mount.mkdir()
+    if os.geteuid() != 0 or not shutil.which("mount"):
+        pytest.skip("mounting a tmpfs needs root")
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=16k", "tmpfs", str(mount)], capture_output=True)
+    if done.returncode:
+        pytest.skip(f"cannot mount a tmpfs: {done.stderr.decode(errors='replace').strip()}")
+    try:
+        yield mount
+    finally:
+        subprocess.run(["umount", str(mount)], check=True)
+
+
+def test_real_full_disk_through_the_command_line(tiny_tmpfs, tmp_path):
+    design = tmp_path / "box.vcad"
+    design.write_text(BOX)
+    target = tiny_tmpfs / "box.gcode"
+    target.write_text(OLD)
+    done = subprocess.run([FGSLICE, "slice", design, "-o", target, "--jobs", "1"], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 2, done.stderr
+    assert "error: the disk is full" in done.stderr and "Traceback" not in done.stderr
+    assert target.read_text() == OLD and leftovers(tiny_tmpfs) == []
+
+
+def _die_on_third(state, item):
+    if item == 2:
+        os._exit(9)
+    return item * state
+
+
+def test_executor_turns_a_dead_worker_into_a_slice_error():
+    with pytest.raises(SliceError, match="a worker process died") as info:
+        list(map_ordered(_die_on_third, 10, range(8), jobs=2))
+    assert "--jobs 1" in info.value.hint
+    assert list(map_ordered(_die_on_third, 10, [0, 1, 3], jobs=2)) == [0, 10, 30]
+
+
+def _layer_task_that_dies(job, index):
+    if index == 1:
+        os._exit(9)
+    return _real_layer_task(job, index)
+
+
+_real_layer_task = fgslice.pipeline._layer_task
+
+
+def test_a_worker_killed_mid_slice_leaves_the_old_output(tmp_path, monkeypatch):
+    target = tmp_path / "out.gcode"
+    target.write_text(OLD)
+    monkeypatch.setattr(fgslice.pipeline, "_layer_task", _layer_task_that_dies)
+    with pytest.raises(SliceError, match="worker process died"):
+        slice_to_gcode(box_design(), load_settings("marlin-mixing", {"strategy": 2}), target, jobs=2)
+    assert target.read_text() == OLD and leftovers(tmp_path) == []
+
+
+TALL = ('fgrade(["(1+sin(0.2*x)*cos(0.3*y))/2", "(1-sin(0.2*x)*cos(0.3*y))/2"], ["blue", "yellow"])'
+        ' { cylinder(40, 120); }\n')
+
+
+@pytest.fixture
+def slow_slice(tmp_path):
+    """Starts slow slices (:func:`_start_slow_slice`); kills what is left of them afterwards."""
+    started = []
+
+    yield lambda: _start_slow_slice(tmp_path, started)
+    for proc in started:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+
+
+def _start_slow_slice(tmp_path, started):
+    """A real ``fgslice slice`` of a part that takes several seconds, in its own process group;
+    returns once it writes its temporary file."""
+    design = tmp_path / "tall.vcad"
+    design.write_text(TALL)
+    target = tmp_path / "tall.gcode"
+    target.write_text(OLD)
+    proc = subprocess.Popen([FGSLICE, "slice", design, "-o", target, "--jobs", "2", "--strategy", "2"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    started.append(proc)
+    deadline = time.monotonic() + 60
+    while not leftovers(tmp_path):
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline, "the slice never started writing"
+        time.sleep(0.05)
+    return proc, target
+
+
+@pytest.mark.slow
+def test_ctrl_c_exits_130_and_keeps_the_old_output(tmp_path, slow_slice):
+    proc, target = slow_slice()
+    os.killpg(proc.pid, signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert "interrupted: no output file was written or changed" in err and "Traceback" not in err
+    assert target.read_text() == OLD and leftovers(tmp_path) == []
+
+
+def _children(pid: int) -> list[int]:
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            found.append(int(stat.parent.name))
+    return found
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc to find the workers")
+def test_killing_a_worker_of_a_real_slice_is_reported(tmp_path, slow_slice):
+    proc, target = slow_slice()
+    deadline = time.monotonic() + 30
+    while not (workers := _children(proc.pid)):
+        assert proc.poll() is None and time.monotonic() < deadline, "no worker processes found"
+        time.sleep(0.05)
+    os.kill(workers[0], signal.SIGKILL)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 2, err
+    assert "error: a worker process died while slicing" in err and "--jobs 1" in err and "Traceback" not in err
+    assert target.read_text() == OLD and leftovers(tmp_path) == []
+
+
+def test_a_completed_slice_replaces_the_old_output(tmp_path):
+    target = tmp_path / "out.gcode"
+    target.write_text(OLD)
+    slice_to_gcode(box_design(), load_settings(), target, jobs=1)
+    assert read_gcode(target).e.sum() > 0 and leftovers(tmp_path) == []
