@@ -130,3 +130,31 @@ def test_short_piece_warning_suggests_a_smaller_palette():
     (_, short), _ = run(settings, colors=short.suggestion)
     if short:  # only a few grazing pieces (around the hole) may stay short
         assert short.short <= 0.15 * short.total
+
+
+def test_sparse_sampling_keeps_every_piece_in_its_color_on_a_curved_field():
+    """The field is evaluated densely only where colors may change: check that no piece
+    of a 10-wall ellipse on the sin*cos field holds another color anywhere inside."""
+
+    class SinCos:
+        def fractions(self, xy, z):
+            x, y = xy[:, 0] - 70, xy[:, 1] - 90
+            f = (1 + np.sin(0.025 * x + 0.0375 * y) * np.cos(0.0375 * x - 0.025 * y)) / 2
+            return np.column_stack([f, 1 - f])
+
+    outline = shapely.MultiPolygon([shapely.affinity.scale(shapely.Point(70, 90).buffer(1, quad_segs=64), 60, 80)])
+    settings = Settings(strategy=1, walls=10, infill_density=0, top_layers=0, bottom_layers=0, min_segment_mm=0)
+    (lp, _), palette = run(settings, outline=outline, field=SinCos(), colors=16, below=[], above=[])
+    lines = np.array([shapely.LineString(p.vertices) for p in lp.paths])
+    lengths = shapely.length(lines)
+    # samples every 0.1 mm, 0.01 mm clear of the ends
+    count = np.maximum((lengths / 0.1).astype(int), 2)
+    piece = np.repeat(np.arange(len(lines)), count)
+    j = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+    along = 0.01 + (lengths[piece] - 0.02) * j / (count[piece] - 1)
+    pts = shapely.get_coordinates(shapely.line_interpolate_point(lines[piece], along))
+    wrong = palette.color_of(SinCos().fractions(pts, 0)) != np.array([p.color for p in lp.paths])[piece]
+    assert len(lp.paths) > 200
+    # only stretches shorter than a bead (merged into their neighbour) may hold another color
+    assert np.bincount(piece[wrong], minlength=len(lines)).max() * 0.1 < W
+    assert wrong.mean() < 1e-3

@@ -1,12 +1,13 @@
 """Strategy 1, "preserving traditional toolpaths": walls, skins and infill on the
 outline, then each path cut into palette colors along the material field.
 
-Cutting needs no polygon clipping. Every path is densified to sub-segments of at most
-``w / 2``; the field is evaluated at all sub-segment midpoints of the layer in one call
-and each midpoint gets ``palette.color_of`` (or its zipper color, see
-:mod:`fgslice.toolpaths.zipper`). Where the color changes between two consecutive
-sub-segments, the cut is placed at the crossing, found by :data:`BISECTION_STEPS`
-vectorized bisection steps along the path between the two midpoints. Pieces shorter
+Cutting needs no polygon clipping. Paths are simplified to ``gcode_resolution`` first,
+then sampled in two levels (:func:`_sample`): the field is evaluated at the ends and
+middle of pieces of at most ten bead widths, and densely (sub-segments of at most
+``w / 2``, field at their midpoints) only on pieces where the color may change. Where
+the color (or zipper color, see :mod:`fgslice.toolpaths.zipper`) changes between two
+consecutive sub-segments, the cut is placed at the crossing by a vectorized search
+along the path (:func:`_refine`). Pieces shorter
 than a bead are merged into their longer neighbour. Units mm; bed frame.
 """
 
@@ -26,8 +27,21 @@ from fgslice.toolpaths.skins import fill_inner, split_inner
 from fgslice.toolpaths.walls import make_walls
 from fgslice.toolpaths.zipper import tooth_length, zipper_labels
 
-BISECTION_STEPS = 8
-"""Bisection steps placing each cut (the crossing is found to ``w / 2^9`` or better)."""
+SEARCH_SPLITS = 4
+"""Parts each search interval is split into per round (see :func:`_refine`)."""
+
+SEARCH_ROUNDS = 4
+"""Search rounds placing each cut: the crossing is found to ``w / 2 / 4^4 = w / 512``."""
+
+COARSE_STEP_WIDTHS = 10.0
+"""Longest first-level sampling piece, in bead widths (see :func:`_sample`)."""
+
+SAFETY = 4.0
+"""Factor between the largest midpoint deviation from linear interpolation on a layer
+and the margin from cell boundaries beyond which a piece keeps one color."""
+
+MIN_MARGIN = 1e-9
+"""Smallest margin from a cell boundary (fraction units), for linear fields."""
 
 WARN_QUANTILE = 0.1
 """Share of the cut-bounded pieces allowed below ``min_segment_mm`` in the palette advice."""
@@ -54,10 +68,10 @@ def layer_paths(
     w, h = settings.bead_width, settings.layer_height
     walls = make_walls(regions.outline, settings.walls, w, h, outer_first=settings.wall_order == "outer_first")
     areas = split_inner(walls.inner, regions.outline, below, above, settings)
-    raw = walls.paths + fill_inner(areas, regions.index, settings)
+    raw = simplify_paths(walls.paths + fill_inner(areas, regions.index, settings), settings.gcode_resolution)
     cut = cut_by_color(raw, field, palette, regions.z_plane, regions.index, settings)
     out = LayerPaths(regions.index, regions.z, regions.height)
-    out.paths = simplify_paths(cut.paths, settings.gcode_resolution)
+    out.paths = cut.paths
     out.uncovered_mm2 = uncovered_area(regions.outline, w)
     return out, short_pieces(cut.bounded_lengths, palette.size, settings.min_segment_mm, regions.index)
 
@@ -78,7 +92,11 @@ class Cut:
 
 @dataclass(frozen=True)
 class _Dense:
-    """Densified sub-segments of a set of paths (flat arrays, one row per sub-segment)."""
+    """Sub-segments of a set of paths (flat arrays, one row per sub-segment, in path order).
+
+    ``uniform`` marks sub-segments proven to hold one color and no zipper band (see
+    :func:`_sample`); the others are at most ``w / 2`` long.
+    """
 
     pid: np.ndarray
     segment: np.ndarray
@@ -87,30 +105,86 @@ class _Dense:
     length: np.ndarray
     arc_mid: np.ndarray
     mid: np.ndarray
+    uniform: np.ndarray
 
 
-def _densify(verts: np.ndarray, pid: np.ndarray, arc: np.ndarray, step: float) -> _Dense:
-    """Split every segment into equal sub-segments of at most ``step`` mm."""
-    seg = np.flatnonzero(pid[1:] == pid[:-1])
-    a, b = verts[seg], verts[seg + 1]
+def _split(pid, segment, a, b, arc0, count) -> _Dense:
+    """Split segments ``a -> b`` (starting at arc position ``arc0`` on path ``pid``) into
+    ``count`` equal sub-segments each."""
     length = np.hypot(*(b - a).T)
-    n = np.maximum(np.ceil(length / step), 1).astype(np.int64)
-    src = np.repeat(np.arange(len(seg)), n)
-    j = np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)
-    t0, t1 = j / n[src], (j + 1) / n[src]
+    src = np.repeat(np.arange(len(a)), count)
+    j = np.arange(len(src)) - np.repeat(np.cumsum(count) - count, count)
+    n = count[src]
+    t0, t1 = (j / n)[:, None], ((j + 1) / n)[:, None]
     d = (b - a)[src]
-    first_vertex = np.searchsorted(pid, pid[seg])
-    sub = length[src] / n[src]
-    p0, p1 = a[src] + d * t0[:, None], a[src] + d * t1[:, None]
+    sub = length[src] / n
+    p0, p1 = a[src] + d * t0, a[src] + d * t1
     return _Dense(
-        pid=pid[seg][src],
-        segment=(seg - first_vertex)[src],
+        pid=pid[src],
+        segment=segment[src],
         p0=p0,
         p1=p1,
         length=sub,
-        arc_mid=arc[seg][src] + length[src] * t0 + sub / 2,
+        arc_mid=arc0[src] + length[src] * t0[:, 0] + sub / 2,
         mid=(p0 + p1) / 2,
+        uniform=np.zeros(len(src), dtype=bool),
     )
+
+
+def _pieces_of(length: np.ndarray, step: float) -> np.ndarray:
+    """How many equal sub-segments of at most ``step`` mm split segments of ``length`` mm."""
+    return np.maximum(np.ceil(length / step), 1).astype(np.int64)
+
+
+def _sample(verts, pid, arc, field, palette, z: float, w: float, beta: float):
+    """Sub-segments of the paths with the field's color (and zipper neighbor) on each.
+
+    Two levels, so that the field is evaluated densely only where colors may change:
+
+    1. every segment is split into pieces of at most :data:`COARSE_STEP_WIDTHS` ``w``;
+       the field is evaluated at both ends and the middle of each piece. Its deviation
+       from linear interpolation at the middle, ``e``, bounds the field's curvature on
+       the layer: ``margin = SAFETY * max(e)``. A piece whose three samples have one
+       color and lie farther than ``margin`` (plus the zipper half-band) from every
+       cell boundary keeps that color all along (cells are convex, so the linear
+       interpolation between its ends stays ``min(d0, d1)`` inside, and the field
+       departs from it by less than the margin); it stays one *uniform* sub-segment;
+    2. the other pieces are split into sub-segments of at most ``w / 2`` and the
+       field is evaluated at their midpoints.
+
+    Returns ``(dense, color, neighbor)``; ``neighbor`` is -1 outside zipper bands.
+    """
+    seg = np.flatnonzero(pid[1:] == pid[:-1])
+    first_vertex = np.searchsorted(pid, pid[seg])
+    a, b = verts[seg], verts[seg + 1]
+    count = _pieces_of(np.hypot(*(b - a).T), COARSE_STEP_WIDTHS * w)
+    coarse = _split(pid[seg], seg - first_vertex, a, b, arc[seg], count)
+    n = len(coarse.pid)
+    last = np.flatnonzero(np.r_[coarse.pid[1:] != coarse.pid[:-1], True])
+    f = field.fractions(np.vstack([coarse.p0, coarse.mid, coarse.p1[last]]), z)
+    f0, fm = f[:n], f[n : 2 * n]
+    f1 = np.empty_like(f0)
+    f1[:-1] = f0[1:]
+    f1[last] = f[2 * n :]
+    margin = max(SAFETY * float(np.max(np.abs(fm - (f0 + f1) / 2), initial=0.0)), MIN_MARGIN)
+    c = np.asarray(palette.color_of(f), dtype=np.int64)
+    near = np.asarray(palette.zipper_neighbor(f, beta + 200.0 * margin)) >= 0
+    c0, cm = c[:n], c[n : 2 * n]
+    c1, near1 = np.empty_like(c0), np.empty_like(near[:n])
+    c1[:-1], near1[:-1] = c0[1:], near[1:n]
+    c1[last], near1[last] = c[2 * n :], near[2 * n :]
+    uniform = (c0 == c1) & (c0 == cm) & ~(near[:n] | near[n : 2 * n] | near1)
+    fine_count = np.where(uniform, 1, _pieces_of(coarse.length, w / 2))
+    dense = _split(coarse.pid, coarse.segment, coarse.p0, coarse.p1, coarse.arc_mid - coarse.length / 2, fine_count)
+    dense.uniform[:] = np.repeat(uniform, fine_count)
+    sampled = ~dense.uniform
+    fine_f = field.fractions(dense.mid[sampled], z)
+    color = np.repeat(c0, fine_count)
+    color[sampled] = palette.color_of(fine_f)
+    neighbor = np.full(len(color), -1, dtype=np.int64)
+    if beta > 0:
+        neighbor[sampled] = palette.zipper_neighbor(fine_f, beta)
+    return dense, color, neighbor
 
 
 def _point_on(dense: _Dense, k: np.ndarray, nxt: np.ndarray, u: np.ndarray) -> np.ndarray:
@@ -125,13 +199,23 @@ def _point_on(dense: _Dense, k: np.ndarray, nxt: np.ndarray, u: np.ndarray) -> n
 
 
 def _refine(dense, k, nxt, predicate) -> np.ndarray:
-    """Distance past the midpoint of ``k`` where ``predicate(points)`` turns False."""
-    lo = np.zeros(len(k))
-    hi = dense.length[k] / 2 + dense.length[nxt] / 2
-    for _ in range(BISECTION_STEPS):
-        mid = (lo + hi) / 2
-        same = predicate(_point_on(dense, k, nxt, mid))
-        lo, hi = np.where(same, mid, lo), np.where(same, hi, mid)
+    """Distance past the midpoint of ``k`` where ``predicate(points)`` turns False.
+
+    The search runs between the two midpoints, or from the shared end when a side is
+    uniform (its color is known all along it), so it spans at most ``w / 2``. Each of
+    :data:`SEARCH_ROUNDS` rounds evaluates :data:`SEARCH_SPLITS` - 1 inner points of
+    every interval at once and keeps the part where the predicate turns False.
+    """
+    half_k = dense.length[k] / 2
+    lo = np.where(dense.uniform[k], half_k, 0.0)
+    hi = half_k + np.where(dense.uniform[nxt], 0.0, dense.length[nxt] / 2)
+    j = np.arange(1, SEARCH_SPLITS)
+    for _ in range(SEARCH_ROUNDS):
+        step = (hi - lo) / SEARCH_SPLITS
+        u = lo[:, None] + step[:, None] * j
+        same = predicate(_point_on(dense, np.repeat(k, len(j)), np.repeat(nxt, len(j)), u.ravel()), len(j))
+        passed = np.cumprod(same.reshape(-1, len(j)), axis=1).sum(axis=1)
+        lo, hi = lo + step * passed, lo + step * (passed + 1)
     return (lo + hi) / 2
 
 
@@ -153,10 +237,7 @@ def cut_by_color(paths: list[Path], field, palette, z: float, layer_index: int, 
     arc = cum - cum[first_vertex][pid]
     total = arc[np.cumsum(counts) - 1]
 
-    dense = _densify(verts, pid, arc, w / 2)
-    fractions = field.fractions(dense.mid, z)
-    color = np.asarray(palette.color_of(fractions), dtype=np.int64)
-    neighbor = np.asarray(palette.zipper_neighbor(fractions, beta), dtype=np.int64) if beta > 0 else np.full(len(color), -1)
+    dense, color, neighbor = _sample(verts, pid, arc, field, palette, z, w, beta)
     label = zipper_labels(
         color, neighbor, dense.pid, dense.segment, dense.arc_mid, dense.length, closed, layer_index,
         tooth_length(w, settings.min_segment_mm),
@@ -176,11 +257,13 @@ def cut_by_color(paths: list[Path], field, palette, z: float, layer_index: int, 
     if field_cut.any():
         ks, ns = k[field_cut], nxt[field_cut]
         want = color[ks]
-        u[field_cut] = _refine(dense, ks, ns, lambda xy: palette.color_of(field.fractions(xy, z)) == want)
+        u[field_cut] = _refine(dense, ks, ns, lambda xy, r: palette.color_of(field.fractions(xy, z)) == np.repeat(want, r))
     if band_cut.any():
         ks, ns = k[band_cut], nxt[band_cut]
         want = band_k[band_cut]
-        u[band_cut] = _refine(dense, ks, ns, lambda xy: (palette.zipper_neighbor(field.fractions(xy, z), beta) >= 0) == want)
+        u[band_cut] = _refine(
+            dense, ks, ns, lambda xy, r: (palette.zipper_neighbor(field.fractions(xy, z), beta) >= 0) == np.repeat(want, r)
+        )
     cpid = dense.pid[k]
     carc = np.mod(dense.arc_mid[k] + u, total[cpid])
     order = np.lexsort((carc, cpid))
