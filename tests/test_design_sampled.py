@@ -68,3 +68,18 @@ def test_field_exactly_zero_on_a_grid_line():
     assert half.area == pytest.approx(32.0, rel=1e-9)
     line = section_from_sdf(lambda x, y: x**2, (-4, -4, 4, 4), 0.5)
     assert line.is_valid and line.area == pytest.approx(0.0, abs=1e-6)
+
+
+def test_fine_grid_is_sampled_only_near_the_outline():
+    evaluated = []
+
+    def field(x, y):
+        evaluated.append(np.size(x))
+        return np.hypot(x, y) - 40.0
+
+    section = section_from_sdf(field, (-45, -45, 45, 45), 0.5)
+    full_grid = (90 / 0.5 + 3) ** 2
+    assert evaluated[0] + evaluated[1] < 0.35 * full_grid  # coarse grid, then the band around the outline
+    assert section.area == pytest.approx(np.pi * 1600.0, rel=1e-4)
+    small = section_from_sdf(_circle(3.3, -2.1, 0.6), (-10, -10, 10, 10), 0.5)
+    assert len(small.geoms) == 1 and small.area == pytest.approx(np.pi * 0.36, rel=0.05)

@@ -6,6 +6,16 @@ contourpy (marching squares, holes included), then moves every vertex onto the z
 level with Newton steps along the numerical gradient and subdivides edges whose
 midpoint strays from the zero level by more than ``tolerance``.
 
+The grid is sampled coarse to fine: the field is first evaluated every
+:data:`_COARSE` ``spacing``; a coarse cell is sampled at ``spacing`` only when one of its
+corners is within ``L * coarse spacing`` of zero, ``L`` being 1.5 times the largest slope
+seen between coarse neighbours (a Lipschitz estimate: a zero level crossing a cell
+passes within ``coarse spacing / sqrt(2)`` of a corner, and differences along the axes
+underestimate a diagonal slope by at most ``sqrt(2)``). Fields far steeper between the
+coarse samples than at them may lose features thinner than the coarse step. Elsewhere the cell has one sign,
+which is all marching squares needs there, so the fine grid is evaluated only in a band
+around the outline.
+
 Accuracy and limits (mm):
 
 * Vertices lie within ``tolerance`` of the zero level wherever the field is smooth;
@@ -29,6 +39,10 @@ import numpy as np
 import shapely
 
 _NEWTON_STEPS = 4
+_CONVERGED = 1e-6
+"""Newton steps below this many ``spacing`` end a vertex's projection."""
+_COARSE = 4
+"""Coarse grid step, in fine steps."""
 _MAX_SUBDIVISION_ROUNDS = 6
 
 
@@ -55,10 +69,9 @@ def section_from_sdf(
     """
     minx, miny, maxx, maxy = (float(v) for v in bounds2d)
     box = _BoxClipped(sdf_xy, (minx, miny, maxx, maxy))
-    xs = np.arange(minx - spacing, maxx + 1.5 * spacing, spacing)
-    ys = np.arange(miny - spacing, maxy + 1.5 * spacing, spacing)
-    grid_x, grid_y = np.meshgrid(xs, ys)
-    values = box(grid_x, grid_y)
+    xs = _axis(minx, maxx, spacing)
+    ys = _axis(miny, maxy, spacing)
+    values = _sample(box, xs, ys, spacing)
     if not (values <= 0).any():
         return shapely.MultiPolygon()
     generator = contourpy.contour_generator(xs, ys, values, fill_type=contourpy.FillType.OuterOffset)
@@ -70,6 +83,35 @@ def section_from_sdf(
     points = _project(box, points, step_limit, spacing)
     points, ring = _subdivide(box, points, ring, tolerance, step_limit, spacing)
     return _polygons(points, ring, ring_polygon)
+
+
+def _axis(lo: float, hi: float, spacing: float) -> np.ndarray:
+    """Grid coordinates from ``lo - spacing`` past ``hi + spacing``, ``1 + k * _COARSE`` of them."""
+    count = int(np.floor((hi - lo) / spacing + 1e-9)) + 3
+    count += (1 - count) % _COARSE
+    return lo - spacing + spacing * np.arange(count)
+
+
+def _sample(field, xs: np.ndarray, ys: np.ndarray, spacing: float) -> np.ndarray:
+    """The field on the grid ``ys x xs``: exact near the zero level, of the right sign elsewhere."""
+    cx, cy = xs[::_COARSE], ys[::_COARSE]
+    coarse = field(*np.meshgrid(cx, cy))
+    step = _COARSE * spacing
+    with np.errstate(invalid="ignore"):
+        slopes = np.concatenate([np.abs(np.diff(coarse, axis=0)).ravel(), np.abs(np.diff(coarse, axis=1)).ravel()])
+    slopes = slopes[np.isfinite(slopes)]
+    lipschitz = 1.5 * (float(slopes.max()) / step if slopes.size else 1.0)
+    near = ~(np.abs(coarse) > lipschitz * step)  # NaN counts as near
+    cells = near[:-1, :-1] | near[1:, :-1] | near[:-1, 1:] | near[1:, 1:]
+    fine = np.zeros((len(ys), len(xs)), dtype=bool)
+    fine[:-1, :-1] = np.repeat(np.repeat(cells, _COARSE, axis=0), _COARSE, axis=1)
+    fine[1:] |= fine[:-1].copy()
+    fine[:, 1:] |= fine[:, :-1].copy()
+    # outside refined cells every node takes the value of its cell's lower-left corner
+    values = np.repeat(np.repeat(coarse, _COARSE, axis=0), _COARSE, axis=1)[: len(ys), : len(xs)]
+    rows, cols = np.nonzero(fine)
+    values[rows, cols] = field(xs[cols], ys[rows])
+    return values
 
 
 class _BoxClipped:
@@ -105,22 +147,30 @@ def _flatten(polygon_points, polygon_offsets):
 
 
 def _project(field, points: np.ndarray, step_limit: float, spacing: float) -> np.ndarray:
-    """Newton steps ``p -= f(p) grad f / |grad f|^2`` (forward differences), each step at most ``step_limit``."""
+    """Newton steps ``p -= f(p) grad f / |grad f|^2`` (forward differences), each step at most ``step_limit``.
+
+    A point stops once its step is below :data:`_CONVERGED` ``spacing`` (Newton converges
+    quadratically: the next step would be smaller still).
+    """
     h = spacing * 1e-4
     p = points.copy()
+    active = np.arange(len(p))
     for _ in range(_NEWTON_STEPS):
-        x, y = p[:, 0], p[:, 1]
+        x, y = p[active, 0], p[active, 1]
         stacked_x = np.concatenate([x, x + h, x])
         stacked_y = np.concatenate([y, y, y + h])
         f0, fx, fy = field(stacked_x, stacked_y).reshape(3, -1)
-        grad = np.column_stack([(fx - f0) / h, (fy - f0) / h])
-        norm2 = (grad**2).sum(axis=1)
-        usable = norm2 > 1e-12
-        step = np.zeros_like(p)
-        step[usable] = (f0[usable] / norm2[usable])[:, None] * grad[usable]
-        length = np.linalg.norm(step, axis=1)
-        scale = np.minimum(1.0, step_limit / np.maximum(length, 1e-300))
-        p -= step * scale[:, None]
+        gx, gy = (fx - f0) / h, (fy - f0) / h
+        norm2 = gx * gx + gy * gy
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ratio = np.where(norm2 > 1e-12, f0 / norm2, 0.0)
+        length = np.abs(ratio) * np.sqrt(norm2)
+        scale = ratio * np.minimum(1.0, step_limit / np.maximum(length, 1e-300))
+        p[active, 0] -= scale * gx
+        p[active, 1] -= scale * gy
+        active = active[~(length <= _CONVERGED * spacing)]
+        if not active.size:
+            break
     return p
 
 
