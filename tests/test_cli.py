@@ -132,3 +132,28 @@ def test_calibrate_lookahead_from_measurement_and_volume(tmp_path):
     result = run("calibrate", "lookahead", "-o", out)
     assert result.exit_code == 0 and out.exists()
     assert run("verify", out).exit_code == 0
+
+
+def test_slice_embeds_thumbnails_and_writes_a_report(design, tmp_path):
+    out, report = tmp_path / "box.gcode", tmp_path / "box.html"
+    result = run("slice", design, "-o", out, "--colors", "3", "--jobs", "1", "--report", report)
+    assert result.exit_code == 0, result.output
+    text = out.read_text()
+    assert "; thumbnail begin 16x16" in text and "; thumbnail begin 220x124" in text
+    html = report.read_text()
+    assert "<html" in html.lower() and "data:image/png;base64," in html
+
+
+def test_preview_draws_a_layer_a_sheet_and_refuses_a_missing_layer(design, tmp_path):
+    out = tmp_path / "box.gcode"
+    assert run("slice", design, "-o", out, "--colors", "3", "--jobs", "1").exit_code == 0
+    png = tmp_path / "layer.png"
+    result = run("preview", out, "-o", png, "--z", "0.6", "--design", design)
+    assert result.exit_code == 0 and "layer 2" in result.output
+    assert png.read_bytes()[:4] == b"\x89PNG"
+    result = run("preview", out, "-o", tmp_path / "sheet.png", "--sheet", "4")
+    assert result.exit_code == 0
+    result = run("preview", out, "-o", tmp_path / "x.png", "--layer", "99")
+    assert result.exit_code == 2 and "does not exist" in result.output
+    result = run("preview", design, "-o", tmp_path / "y.png")
+    assert result.exit_code == 2 and "Traceback" not in result.output

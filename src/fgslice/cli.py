@@ -67,26 +67,35 @@ def _write_json(path: Path, data: dict) -> None:
 @click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="Override any setting (repeatable).")
 @click.option("--materials", type=click.Path(dir_okay=False, path_type=Path), help="Material library JSON.")
 @click.option("--stats", "stats_path", type=click.Path(dir_okay=False, path_type=Path), help="Write statistics as JSON.")
+@click.option("--report", "report_path", type=click.Path(dir_okay=False, path_type=Path), help="Write a self-contained HTML report.")
 @click.option("--jobs", type=int, help="Worker processes (default: all cores).")
 @click.option("--scheduler", help="Run layers on a Dask scheduler at this address.")
-def slice_command(design, output, profile, strategy, colors, layer_height, sets, materials, stats_path, jobs, scheduler):
+def slice_command(design, output, profile, strategy, colors, layer_height, sets, materials, stats_path, report_path, jobs, scheduler):
     """Slice DESIGN (.vcad) to printer-ready G-code."""
     from fgslice.design import load_design
     from fgslice.output import check_writable
     from fgslice.pipeline import slice_to_gcode
+    from fgslice.preview.thumbnails import render_thumbnails
 
     output = output or design.with_suffix(".gcode")
     settings = _settings(profile, sets, {"strategy": strategy, "colors": colors, "layer_height": layer_height})
     check_writable(output, inputs=(design, materials))
-    if stats_path:
-        check_writable(stats_path, inputs=(design, output))
+    for extra in (stats_path, report_path):
+        if extra:
+            check_writable(extra, inputs=(design, output))
     loaded = load_design(design, materials)
     comments = {"design": str(design), "command": "fgslice " + " ".join(sys.argv[1:])}
+    thumbnails = tuple(render_thumbnails(loaded, settings))
     with _progress("slicing") as progress:
-        result = slice_to_gcode(loaded, settings, output, jobs=jobs, scheduler=scheduler, comments=comments, progress=progress)
+        result = slice_to_gcode(
+            loaded, settings, output, jobs=jobs, scheduler=scheduler, comments=comments, thumbnails=thumbnails,
+            progress=progress,
+        )
     s = result.stats
     if stats_path:
         _write_json(stats_path, s)
+    if report_path:
+        _write_report(report_path, result, settings, loaded)
     for warning in s["warnings"]:
         click.echo(f"warning: {warning}", err=True)
     click.echo(
@@ -94,6 +103,23 @@ def slice_command(design, output, profile, strategy, colors, layer_height, sets,
         f"{s['state_changes']} state changes, print {_duration(s['estimated_time_s'])}, "
         f"sliced in {s['elapsed_s']:.2f} s"
     )
+
+
+def _write_report(path: Path, result, settings, design) -> None:
+    """The HTML report of a finished slice, with its simulated fidelity."""
+    from fgslice.analysis.fidelity import fidelity, simulation_stats
+    from fgslice.analysis.simulate import simulate
+    from fgslice.machine.dialects import make_dialect
+    from fgslice.preview.report import write_report
+    from fgslice.slicing.palette import Palette
+
+    palette = Palette(len(design.materials), result.stats["colors"])
+    simulated = simulate(result.output, design, None, settings)
+    write_report(
+        path, stats=result.stats, settings=settings, palette=palette, dialect=make_dialect(settings, palette),
+        program=result.output, design=design, fidelity=simulation_stats(simulated, fidelity(simulated)),
+    )
+    click.echo(f"{path}: report written")
 
 
 def _duration(seconds: float) -> str:
@@ -247,6 +273,40 @@ def calibrate_lookahead(profile, sets, output, measured_error, segment_length, b
         settings, measured_error_mm=measured_error, melt_volume_mm3=melt_volume, line_length_mm=segment_length
     )
     click.echo(text)
+
+
+@main.command("preview")
+@click.argument("gcode", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path), help="PNG file to write.")
+@click.option("--layer", type=int, help="Layer number (0-based; default: the middle layer).")
+@click.option("--z", "z", type=float, help="Draw the layer nearest this height, mm.")
+@click.option("--design", "design_path", type=click.Path(dir_okay=False, path_type=Path), help="Draw the design's field at that height beside it.")
+@click.option("--materials", type=click.Path(dir_okay=False, path_type=Path), help="Material library JSON.")
+@click.option("--travel", is_flag=True, help="Draw travel moves too.")
+@click.option("--sheet", type=int, metavar="N", help="A contact sheet of N evenly spaced layers instead.")
+def preview_command(gcode, output, layer, z, design_path, materials, travel, sheet):
+    """Draw a layer of GCODE (or a contact sheet) at real bead width, colored by state."""
+    from fgslice.output import check_writable
+    from fgslice.preview.colors import load_printout
+    from fgslice.preview.layers import layer_count, nearest_layer, render_layer, render_sheet
+
+    check_writable(output, inputs=(gcode,))
+    printout = load_printout(gcode)
+    if sheet:
+        drawn = render_sheet(printout, output, count=sheet)
+        click.echo(f"{output}: layers {', '.join(map(str, drawn))}")
+        return
+    design = None
+    if design_path:
+        from fgslice.design import load_design
+
+        design = load_design(design_path, materials)
+    if z is not None:
+        layer = nearest_layer(printout, z)
+    elif layer is None:
+        layer = layer_count(printout.program) // 2
+    render_layer(printout, layer, output, design=design, show_travel=travel)
+    click.echo(f"{output}: layer {layer}")
 
 
 @main.command("view")
