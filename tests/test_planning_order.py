@@ -146,3 +146,42 @@ def test_bad_input_is_reported():
         order_layer(paths, np.arange(6), np.zeros(2), "sideways")
     empty = order_layer(LayerPaths(1, 0.4, 0.2, []), np.arange(3), np.zeros(2), "walls_first")
     assert empty.steps == [] and empty.index == 1
+
+
+def _wall_order(wall_order, start):
+    """Printed wall loops of two islands (a square with a hole and a small square), one
+    color, strategy 1 with 3 walls: (island index, distance of the loop to the surface)."""
+    import shapely
+
+    from fgslice.settings import Settings
+    from fgslice.slicing.layers import LayerRegions
+    from fgslice.slicing.palette import Palette
+    from fgslice.toolpaths import strategy1
+
+    class Uniform:
+        def fractions(self, xy, z):
+            return np.column_stack([np.full(len(xy), 0.3), np.full(len(xy), 0.7)])
+
+    holed = shapely.box(0, 0, 30, 30).difference(shapely.box(10, 10, 20, 20))
+    outline = shapely.MultiPolygon([holed, shapely.box(40, 0, 50, 10)])
+    settings = Settings(strategy=1, walls=3, infill_density=20, wall_order=wall_order, top_layers=0, bottom_layers=0)
+    lp, _ = strategy1.layer_paths(LayerRegions(2, 0.6, 0.2, outline, ()), [], [], Uniform(), Palette(2, 4), settings)
+    plan = order_layer(lp, np.arange(4), np.asarray(start, dtype=float), "walls_first")
+    walls = [s for s in plan.steps if isinstance(s, Path) and s.role in (Role.EXTERNAL_PERIMETER, Role.PERIMETER)]
+    assert len(walls) == 9  # 3 loops around the square, 3 around its hole, 3 around the small square
+    island = [int(shapely.box(-1, -1, 31, 31).contains(shapely.Point(p.points[0])) is False) for p in walls]
+    depth = [shapely.LinearRing(p.points).distance(outline.boundary) for p in walls]
+    return np.array(island), np.array(depth)
+
+
+@pytest.mark.parametrize("start", [(0.0, 0.0), (60.0, 0.0)])
+def test_wall_order_is_kept_per_island(start):
+    for wall_order, sign in (("outer_first", 1), ("inner_first", -1)):
+        island, depth = _wall_order(wall_order, start)
+        # each island's loops are printed together, the nearer island first
+        assert np.count_nonzero(np.diff(island)) == 1
+        assert island[0] == (0 if start[0] < 30 else 1)
+        for i in (0, 1):
+            d = depth[island == i]
+            assert np.all(sign * np.diff(d) >= -1e-6)  # outer -> inner, or inner -> outer
+            assert d.max() - d.min() > 0.6  # three loops, 0.2 .. 0.91 mm deep

@@ -7,7 +7,12 @@ once per layer. Inside a color, walls (external perimeters and perimeters) come 
 everything else for ``feature_order == "walls_first"`` and after it for
 ``"infill_first"``.
 
-Inside each group the paths are toured greedily: from the nozzle position, go to the
+Paths with a ``group`` id (the walls of one island, holes included, as
+``toolpaths.walls.make_walls`` gives them) form a *unit* printed in its list order, so the
+wall order (outer-first or inner-first) survives cutting into colors: a color group
+prints its units first, each entered at the unit whose first path is nearest, every
+path of a unit rotated (closed) or reversed (open) to start nearest the nozzle.
+The other paths of a group are toured greedily: from the nozzle position, go to the
 nearest path entry not printed yet. Entries are both ends of an open path (entering at
 the far end reverses the path) and vertices of a closed path (entering there rotates
 the path to start at that vertex). Nearest entries come from a :class:`scipy.spatial.cKDTree`;
@@ -96,10 +101,46 @@ def order_layer(
         if color != SKIRT_COLOR and color != current:
             steps.append(SetState(color))
             current = color
-        toured, position = travel_tour([paths.paths[i] for i in members], position)
+        toured, position = _tour_units([paths.paths[i] for i in members], position)
         steps.extend(toured)
     plan.steps = steps
     return plan
+
+
+def _tour_units(paths: Sequence[Path], position: np.ndarray) -> tuple[list[Path], np.ndarray]:
+    """Print the units of grouped paths (nearest unit first, each in its list order),
+    then tour the ungrouped paths greedily. Returns the oriented paths and the final XY."""
+    units: dict[int, list[Path]] = {}
+    loose: list[Path] = []
+    for path in paths:
+        (units.setdefault(path.group, []) if path.group >= 0 else loose).append(path)
+    out: list[Path] = []
+    pending = list(units.values())
+    while pending:
+        gaps = [_entry_distance(unit[0], position) for unit in pending]
+        for path in pending.pop(int(np.argmin(gaps))):
+            path = _oriented(path, position)
+            out.append(path)
+            position = path.end
+    toured, position = travel_tour(loose, position)
+    return out + toured, position
+
+
+def _entry_distance(path: Path, xy: np.ndarray) -> float:
+    """Distance (mm) from ``xy`` to the nearest entry of ``path`` (any vertex if closed, an end if open)."""
+    points = path.points if path.closed else path.points[[0, -1]]
+    return float(np.min(np.hypot(*(points - xy).T)))
+
+
+def _oriented(path: Path, xy: np.ndarray) -> Path:
+    """``path`` rotated (closed) or reversed (open) to start at its entry nearest ``xy``."""
+    if path.closed:
+        d = path.points - xy
+        vertex = int(np.argmin(np.einsum("ij,ij->i", d, d)))
+        return replace(path, points=np.roll(path.points, -vertex, axis=0)) if vertex else path
+    if np.hypot(*(path.points[-1] - xy)) < np.hypot(*(path.points[0] - xy)):
+        return replace(path, points=path.points[::-1])
+    return path
 
 
 def travel_distance(paths: Sequence[Path], start_xy: np.ndarray) -> float:

@@ -38,6 +38,8 @@ class Path:
         width: bead width, mm.
         height: bead height (layer height), mm.
         closed: True if the path returns from its last point to its first.
+        group: -1, or the id of a unit of paths printed together in their list order
+            (the walls of one island, holes included); planning keeps that order.
     """
 
     points: np.ndarray
@@ -46,6 +48,7 @@ class Path:
     width: float
     height: float
     closed: bool = False
+    group: int = -1
 
     def with_color(self, color: int) -> "Path":
         """The same path in another color."""

@@ -6,6 +6,8 @@ into account, then dropped again, so ``Path.points`` keeps not repeating it).
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import shapely
 
@@ -29,5 +31,5 @@ def simplify_paths(paths: list[Path], tolerance: float) -> list[Path]:
     out = []
     for p, a, b in zip(paths, bounds[:-1].tolist(), bounds[1:].tolist()):
         pts = coords[a : b - 1] if p.closed else coords[a:b]
-        out.append(Path(pts, p.role, p.color, p.width, p.height, p.closed) if len(pts) >= (3 if p.closed else 2) else p)
+        out.append(replace(p, points=pts) if len(pts) >= (3 if p.closed else 2) else p)
     return out

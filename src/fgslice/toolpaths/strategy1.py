@@ -220,7 +220,8 @@ def _refine(dense, k, nxt, predicate) -> np.ndarray:
 
 
 def cut_by_color(paths: list[Path], field, palette, z: float, layer_index: int, settings: Settings) -> Cut:
-    """Cut ``paths`` into pieces of one color each (see the module docstring)."""
+    """Cut ``paths`` into pieces of one color each (see the module docstring), listed in
+    the order of ``paths`` and along each path."""
     if not paths:
         return Cut([], np.empty(0))
     w = settings.bead_width
@@ -271,12 +272,14 @@ def cut_by_color(paths: list[Path], field, palette, z: float, layer_index: int, 
     bounds = np.searchsorted(cpid, np.arange(len(paths) + 1))
 
     whole: list[Path] = []
+    whole_src: list[int] = []
     rows: list[tuple[int, float, float, int]] = []
     for i, path in enumerate(paths):
         a, b = bounds[i], bounds[i + 1]
         first_label = int(label[first_sub[i]])
         if a == b:
             whole.append(path.with_color(first_label))
+            whole_src.append(i)
             continue
         cuts, labs = carc[a:b], clab[a:b].tolist()
         length = float(total[i])
@@ -287,9 +290,13 @@ def cut_by_color(paths: list[Path], field, palette, z: float, layer_index: int, 
         starts, ends, labs = _merge_short(starts, ends, labs, w, path.closed, length)
         if len(labs) == 1 and path.closed:
             whole.append(path.with_color(labs[0]))
+            whole_src.append(i)
             continue
         rows += [(i, s0, s1, lab) for s0, s1, lab in zip(starts, ends, labs)]
-    pieces = whole + _pieces(paths, verts, pid, arc, total, rows)
+    # pieces in the order of their source paths (and along each path)
+    unordered = whole + _pieces(paths, verts, pid, arc, total, rows)
+    order = np.argsort(np.r_[whole_src, [r[0] for r in rows]].astype(np.int64), kind="stable")
+    pieces = [unordered[j] for j in order.tolist()]
     runs = _color_runs(color, dense.pid, dense.length, closed)
     return Cut(pieces, runs)
 
@@ -336,7 +343,7 @@ def _pieces(paths, verts, pid, arc, total, rows) -> list[Path]:
             e = extra[r]
             pts = np.vstack([pts, out[offsets[e] + 1 : offsets[e + 1]]])
         p = paths[i]
-        pieces.append(Path(pts, p.role, lab, p.width, p.height, False))
+        pieces.append(Path(pts, p.role, lab, p.width, p.height, False, p.group))
     return pieces
 
 

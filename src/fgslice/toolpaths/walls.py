@@ -68,10 +68,11 @@ def ring_groups(geoms) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return coords[~last], index[~last], part_src[ring_part]
 
 
-def split_rings(coords: np.ndarray, index: np.ndarray, roles, colors, width: float, height: float) -> list[Path]:
+def split_rings(coords: np.ndarray, index: np.ndarray, roles, colors, width: float, height: float, groups=-1) -> list[Path]:
     """Closed :class:`Path` objects from flat ring vertices (as :func:`ring_groups` gives).
 
-    ``roles`` is one :class:`Role` or one per ring; ``colors`` one int or one per ring.
+    ``roles`` is one :class:`Role` or one per ring; ``colors`` and ``groups`` one int or
+    one per ring.
     """
     if len(coords) == 0:
         return []
@@ -80,10 +81,22 @@ def split_rings(coords: np.ndarray, index: np.ndarray, roles, colors, width: flo
     n = len(starts)
     roles = [roles] * n if isinstance(roles, Role) else list(roles)
     colors = np.broadcast_to(np.asarray(colors, dtype=int), (n,)).tolist()
+    groups = np.broadcast_to(np.asarray(groups, dtype=int), (n,)).tolist()
     return [
-        Path(coords[a:b], role, color, width, height, closed=True)
-        for a, b, role, color in zip(starts.tolist(), ends.tolist(), roles, colors)
+        Path(coords[a:b], role, color, width, height, closed=True, group=group)
+        for a, b, role, color, group in zip(starts.tolist(), ends.tolist(), roles, colors, groups)
     ]
+
+
+def island_of(outline, coords: np.ndarray, ring_index: np.ndarray) -> np.ndarray:
+    """For each ring (flat vertices as :func:`ring_groups` gives), the index of the part
+    of ``outline`` that holds its first vertex (-1 if none)."""
+    first = np.flatnonzero(np.r_[True, ring_index[1:] != ring_index[:-1]])
+    islands = shapely.get_parts(outline)
+    ring, island = shapely.STRtree(islands).query(shapely.points(coords[first]), predicate="intersects")
+    out = np.full(len(first), -1, dtype=np.int64)
+    out[ring[::-1]] = island[::-1]
+    return out
 
 
 @dataclass(frozen=True)
@@ -92,7 +105,8 @@ class Walls:
 
     Attributes:
         paths: the perimeters, ordered by loop index (outermost loops first when
-            outer-first, innermost first otherwise).
+            outer-first, innermost first otherwise); each carries as ``group`` the
+            index of its island in ``outline`` (holes belong to their island).
         inner: area left for skins and infill (the inner edge of the innermost loop's
             nominal strip, i.e. ``s / 2`` inside its centerline), a MultiPolygon.
     """
@@ -110,6 +124,8 @@ def make_walls(outline, count: int, width: float, height: float, *, outer_first:
     computed as erosion by ``w / 2 + k s + s / 2`` then dilation by ``s / 2``, and the
     last erosion is the inner area. Loop 0 of
     each island and of each hole has role EXTERNAL_PERIMETER, the others PERIMETER.
+    Every loop's ``group`` is the index of the outline island it lies in, so that
+    planning prints one island's loops together in this order.
 
     Args:
         outline: the layer's cross-section (Polygon or MultiPolygon), mm.
@@ -128,6 +144,6 @@ def make_walls(outline, count: int, width: float, height: float, *, outer_first:
     inner = eroded[-1]
     coords, ring_idx, loop = ring_groups(centers)
     roles = np.where(loop == 0, Role.EXTERNAL_PERIMETER, Role.PERIMETER)
-    paths = split_rings(coords, ring_idx, roles, color, width, height)
+    paths = split_rings(coords, ring_idx, roles, color, width, height, island_of(outline, coords, ring_idx))
     order = np.argsort(loop if outer_first else -loop, kind="stable")
     return Walls([paths[i] for i in order], inner)
