@@ -10,6 +10,7 @@ vectors ``(a, b, c)`` and lists ``["a", "b"]``. Names are case-insensitive; ``//
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -89,7 +90,12 @@ class _Builder:
         if isinstance(tree, lark.Token):
             where = self.where(tree.line, tree.column)
             if tree.type == "NUMBER":
-                return Arg("number", float(tree), where)
+                value = float(tree)
+                if not math.isfinite(value):
+                    shown = tree if len(tree) <= 24 else tree[:20] + "..."
+                    raise DesignSyntaxError(f"number too large: '{shown}'", hint="numbers must be below about 1.8e308",
+                                            **where.error_kwargs())
+                return Arg("number", value, where)
             inner = self.where(tree.line, tree.column + 1)
             return Arg("string", str(tree)[1:-1], inner)
         where = self.where(tree.meta.line, tree.meta.column)

@@ -115,7 +115,7 @@ def _check_heating(program: GcodeProgram, settings: Settings) -> list[Fault]:
         return []
     lines, values = _heated_timeline(program)
     at = np.searchsorted(lines, program.line, side="right") - 1
-    heated = np.where(at >= 0, values[np.maximum(at, 0)], 0.0)
+    heated = np.concatenate([[0.0], values])[at + 1]
     bad = (program.e > 0) & (heated < settings.min_extrude_temperature)
     return _report_runs(
         program, bad,
