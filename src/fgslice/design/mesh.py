@@ -77,7 +77,9 @@ def load_mesh(path: str | Path, *, gap_tolerance: float = 0.25) -> MeshGeometry:
         raise MeshError("mesh file not found", file=path, hint="check the path (relative paths start at the design file's folder)")
     try:
         with path.open("rb") as stream:
-            loaded = trimesh.load(stream, file_type=file_type, force="mesh", process=False)
+            loaded = trimesh.load(stream, file_type=file_type, process=False)
+            if isinstance(loaded, trimesh.Scene):
+                loaded = loaded.to_mesh()
     except Exception as exc:  # trimesh raises many unrelated types for corrupt input
         raise MeshError(
             f"cannot read the {file_type.upper()} mesh: {exc}",
@@ -98,8 +100,37 @@ def load_mesh(path: str | Path, *, gap_tolerance: float = 0.25) -> MeshGeometry:
             file=path,
             hint="repair the mesh (e.g. with your CAD program's mesh repair) and export it again",
         )
-    loaded.merge_vertices()
-    return MeshGeometry(loaded, path=path, gap_tolerance=gap_tolerance)
+    vertices, faces = _merge_vertices(vertices, np.asarray(loaded.faces, dtype=np.int64))
+    return MeshGeometry(trimesh.Trimesh(vertices, faces, process=False), path=path, gap_tolerance=gap_tolerance)
+
+
+_MERGE_DIGITS = 8
+"""Vertices equal after rounding to this many decimals (mm) are merged (trimesh's default)."""
+
+_HASH = np.array([0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9], dtype=np.uint64)
+
+
+def _merge_vertices(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Coincident vertices merged into one of them; faces re-indexed.
+
+    Rows are rounded to :data:`_MERGE_DIGITS` decimals, hashed to one 64-bit key and
+    sorted once; a hash collision between different rows (checked) falls back to
+    ``np.unique(axis=0)``.
+    """
+    q = np.round(vertices * 10.0**_MERGE_DIGITS).astype(np.int64)
+    with np.errstate(over="ignore"):
+        key = (q.view(np.uint64) * _HASH).sum(axis=1, dtype=np.uint64)
+    order = np.argsort(key)
+    sorted_key, sorted_q = key[order], q[order]
+    same_key = sorted_key[1:] == sorted_key[:-1]
+    same_row = (sorted_q[1:] == sorted_q[:-1]).all(axis=1)
+    if np.any(same_key & ~same_row):
+        _, first, inverse = np.unique(q, axis=0, return_index=True, return_inverse=True)
+        return vertices[first], inverse.reshape(-1)[faces]
+    new = np.r_[True, ~same_key]
+    inverse = np.empty(len(vertices), dtype=np.int64)
+    inverse[order] = np.cumsum(new) - 1
+    return vertices[order[new]], inverse[faces]
 
 
 class MeshGeometry:
@@ -116,9 +147,7 @@ class MeshGeometry:
         self._mesh = mesh
         self._vertices = np.asarray(mesh.vertices, dtype=float)
         self._faces = np.asarray(mesh.faces, dtype=np.int64)
-        self._edges = np.asarray(mesh.edges_unique, dtype=np.int64)
-        # trimesh orders a face's edges (v0, v1), (v1, v2), (v2, v0)
-        self._face_edges = np.asarray(mesh.faces_unique_edges, dtype=np.int64)
+        self._edges, self._face_edges = _unique_edges(self._faces, len(self._vertices))
         face_z = self._vertices[self._faces, 2]
         self._face_zmin = face_z.min(axis=1)
         self._face_zmax = face_z.max(axis=1)
@@ -196,6 +225,18 @@ class MeshGeometry:
     def _ray_counters(self) -> tuple[_RayCrossings, ...]:
         triangles = self._vertices[self._faces]
         return tuple(_RayCrossings(triangles, axis) for axis in range(3))
+
+
+def _unique_edges(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+    """The unique edges ``(E, 2)`` (lower vertex index first) and each face's edges ``(F, 3)``.
+
+    A face's edges are (v0, v1), (v1, v2), (v2, v0), in that order.
+    """
+    ends = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    lo, hi = ends.min(axis=1), ends.max(axis=1)
+    keys, inverse = np.unique(lo * np.int64(n_vertices) + hi, return_inverse=True)
+    edges = np.column_stack([keys // n_vertices, keys % n_vertices])
+    return edges, inverse.reshape(-1, 3)
 
 
 def _ranks_within_runs(counts: np.ndarray) -> np.ndarray:
