@@ -15,7 +15,10 @@ Then ``speedup``: the vase with ``--jobs 1`` and ``--jobs 2`` (target >= 1.6), a
 ``compare``: a single-material 3DBenchy (0.2 mm layers, 2 walls, 15 % infill) with
 fgslice, ``prusa-slicer`` and ``CuraEngine`` (each skipped with a note when not installed).
 
-Run: ``.venv/bin/python benchmarks/run_all.py [--rows vase,benchy,...] [--jobs N] [--quick]``.
+``--profile`` instead slices each selected row in one process under cProfile and prints
+its top functions by own time (where the time goes).
+
+Run: ``.venv/bin/python benchmarks/run_all.py [--rows vase,benchy,...] [--jobs N] [--quick] [--profile]``.
 Row names: see ``--list``.
 """
 
@@ -25,6 +28,7 @@ import argparse
 import glob
 import json
 import os
+import pstats
 import shutil
 import subprocess
 import sys
@@ -75,6 +79,17 @@ ROWS = (
     Row("palette_s2_c48", EXAMPLES / "palette.vcad", PALETTE_S2 + ("--colors", "48"), 424, PALETTE_TARGET_S, quick=True),
 )
 EXTRA = ("speedup", "compare")
+STAGES = (
+    ("outlines", ("pipeline.py", "_section_task")),
+    ("regions", ("regions.py", "slice_layer")),
+    ("strategy 1", ("strategy1.py", "layer_paths")),
+    ("strategy 2", ("strategy2.py", "layer_paths")),
+    ("order", ("order.py", "order_layer")),
+    ("purge", ("purge.py", "insert_purges")),
+    ("write", ("gcode.py", "write_layer")),
+    ("verify", ("verify.py", "verify_gcode")),
+)
+"""Pipeline stages whose cumulative time ``--profile`` reports: (label, (file, function))."""
 
 
 @dataclass
@@ -118,7 +133,7 @@ def run_fgslice(design: Path, args: tuple[str, ...], out: Path, jobs: int) -> tu
 
 def print_table(rows: list[Row], jobs: int, workdir: Path) -> None:
     head = (f"{'row':20s} {'layers':>6s} {'colors':>6s} {'wall s':>8s} {'cpu s':>8s} {'slice s':>8s} "
-            f"{'peak MB':>8s} {'paper s':>8s} {'/paper':>8s} {'target s':>8s} {'/target':>8s}")
+            f"{'peak MB':>8s} {'paper s':>8s} {'/paper':>8s} {'target s':>8s} {'/target':>8s} {'cpu/tgt':>8s}")
     print(f"fgslice, --jobs {jobs}\n{head}\n{'-' * len(head)}")
     for row in rows:
         run, stats = run_fgslice(row.design, row.args, workdir / f"{row.name}.gcode", jobs)
@@ -128,6 +143,28 @@ def print_table(rows: list[Row], jobs: int, workdir: Path) -> None:
         print(f"{row.name:20s} {stats['layers']:6d} {stats['colors']:6d} {run.wall_s:8.2f} {run.cpu_s:8.2f} "
               f"{stats['elapsed_s']:8.2f} {run.peak_mb:8.0f} {row.paper_s:8.0f} {run.wall_s / row.paper_s:8.4f} "
               f"{row.target_s:8.1f} {run.wall_s / row.target_s:8.2f} {run.cpu_s / row.target_s:8.2f}", flush=True)
+
+
+def print_profiles(rows: list[Row], workdir: Path, top: int) -> None:
+    """Each row with ``--jobs 1`` under cProfile: total and the ``top`` functions by own time."""
+    for row in rows:
+        out = workdir / f"{row.name}.gcode"
+        prof = workdir / f"{row.name}.prof"
+        cmd = fgslice_cmd(row.design, row.args, out, 1)
+        run = measure([cmd[0], "-m", "cProfile", "-o", str(prof), *cmd[1:]], ROOT)
+        if run.returncode != 0:
+            print(f"{row.name}: failed (exit {run.returncode}): {run.stderr.strip().splitlines()[-1:]}")
+            continue
+        stats = pstats.Stats(str(prof))
+        total = stats.total_tt
+        print(f"\n{row.name}: {total:.1f} s profiled wall (cpu {run.cpu_s:.1f} s)")
+        cumulative = {(Path(file).name, func): v[3] for (file, _, func), v in stats.stats.items()}
+        parts = [f"{label} {100 * cumulative[key] / total:.0f}%" for label, key in STAGES if key in cumulative]
+        print("  stages (cumulative share): " + ", ".join(parts))
+        entries = sorted(stats.stats.items(), key=lambda kv: kv[1][2], reverse=True)[:top]
+        for (file, line, func), (_, calls, tottime, cumtime, _) in entries:
+            where = f"{Path(file).name}:{line}" if line else file
+            print(f"  {tottime:7.2f} s {100 * tottime / total:5.1f}%  cum {cumtime:7.2f} s  {calls:>9d} calls  {func} ({where})")
 
 
 def print_speedup(workdir: Path) -> None:
@@ -208,6 +245,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--rows", help="comma-separated row names (default: all); see --list")
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="worker processes per slice")
     parser.add_argument("--quick", action="store_true", help="only the palette rows marked quick, no vase/Benchy")
+    parser.add_argument("--profile", action="store_true", help="profile the selected rows instead of timing them")
+    parser.add_argument("--top", type=int, default=5, help="functions per row with --profile")
     parser.add_argument("--list", action="store_true", help="print the row names and exit")
     parser.add_argument("--keep", type=Path, help="write G-code and statistics here instead of a temporary folder")
     args = parser.parse_args(argv)
@@ -230,6 +269,9 @@ def main(argv: list[str] | None = None) -> None:
         workdir = args.keep or Path(tmp)
         workdir.mkdir(parents=True, exist_ok=True)
         rows = [r for r in ROWS if r.name in wanted]
+        if args.profile:
+            print_profiles(rows, workdir, args.top)
+            return
         if rows:
             print_table(rows, args.jobs, workdir)
         if "speedup" in wanted:
