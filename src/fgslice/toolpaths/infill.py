@@ -44,6 +44,10 @@ SLIVER_MIN_THICKNESS = 1e-3
 """Gap fills are made only for slivers at least this thick on average (mm); thinner ones
 are numerical residue of offsetting."""
 
+MAX_WIDTH_FACTOR = 1.5
+"""Widest dense bead, in nominal bead widths (a loop or a solid fill may be widened to
+balance volume)."""
+
 INSIDE_TOLERANCE = 1e-4
 """Slack (mm) when testing that a link lies inside the region."""
 
@@ -58,13 +62,15 @@ def _rotate(xy: np.ndarray, angle_deg: float) -> np.ndarray:
 def _scan_segments(coords: np.ndarray, ring: np.ndarray, spacing: float, min_length: float):
     """Scanline clip of the global grid of horizontal lines against polygon rings.
 
-    ``coords``/``ring`` are the region's ring vertices (already rotated, no repeated
-    closing vertex). Each edge crossing line ``y_i = (i + 1/2) spacing`` (half-open in y,
-    so a vertex on a line counts once) gives an x; sorted per line, crossings pair up
-    into inside intervals by the even-odd rule.
+    ``coords``/``ring`` are the ring vertices of one region or of many disjoint ones
+    (already rotated, no repeated closing vertex). Each edge crossing line
+    ``y_i = (i + 1/2) spacing`` (half-open in y, so a vertex on a line counts once) gives
+    an x; sorted per line, crossings pair up into inside intervals by the even-odd rule
+    (which holds for the union of disjoint regions too).
 
-    Returns ``(line, x0, x1, y)`` arrays sorted by line then x, one row per segment
-    at least ``min_length`` long.
+    Returns ``(line, x0, x1, y, src)`` arrays sorted by line then x, one row per segment
+    at least ``min_length`` long; ``src`` is the ring whose edge the segment starts on
+    (a segment lies in the region that ring bounds).
     """
     nxt = np.arange(1, len(coords) + 1)
     last = np.r_[ring[1:] != ring[:-1], True]
@@ -81,37 +87,44 @@ def _scan_segments(coords: np.ndarray, ring: np.ndarray, spacing: float, min_len
     t = (y - p[edge, 1]) / (q[edge, 1] - p[edge, 1])
     x = p[edge, 0] + t * (q[edge, 0] - p[edge, 0])
     order = np.lexsort((x, line))
-    line, x = line[order], x[order]
-    line, x0, x1 = line[0::2], x[0::2], x[1::2]
+    line, x, edge = line[order], x[order], edge[order]
+    line, x0, x1, src = line[0::2], x[0::2], x[1::2], ring[edge[0::2]]
     keep = x1 - x0 >= min_length
-    line, x0, x1 = line[keep], x0[keep], x1[keep]
-    return line, x0, x1, (line + 0.5) * spacing
+    line, x0, x1, src = line[keep], x0[keep], x1[keep], src[keep]
+    return line, x0, x1, (line + 0.5) * spacing, src
 
 
-def _links(region, line, x0, x1, y, spacing: float) -> tuple[np.ndarray, np.ndarray]:
+def _links(containers, owner, line, x0, x1, y, spacing: float, angle_deg: float) -> tuple[np.ndarray, np.ndarray]:
     """Accepted links ``(a, b)``: segment ``a`` on line ``i`` to segment ``b`` on ``i + 1``.
 
-    The link joins the right ends when ``i`` is even, the left ends when odd. Each end
-    is used once (shortest candidate wins).
+    The link joins the right ends when ``i`` is even, the left ends when odd; both
+    segments must belong to the same region (``owner``) and the link must lie in that
+    region's entry of ``containers`` (prepared, bed frame). Each end is used once
+    (shortest candidate wins).
     """
     n = len(line)
     if n < 2:
         return np.empty(0, int), np.empty(0, int)
-    next_start = np.searchsorted(line, line + 1, side="left")
-    next_end = np.searchsorted(line, line + 1, side="right")
+    # segments grouped by region, then line: candidates are the next line's group
+    key = owner * (line.max() - line.min() + 2) + (line - line.min())
+    by_key = np.lexsort((x0, key))
+    sorted_key = key[by_key]
+    next_start = np.searchsorted(sorted_key, key + 1, side="left")
+    next_end = np.searchsorted(sorted_key, key + 1, side="right")
     counts = next_end - next_start
     a = np.repeat(np.arange(n), counts)
     if len(a) == 0:
         return a, a
-    b = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts) + np.repeat(next_start, counts)
+    b = by_key[np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts) + np.repeat(next_start, counts)]
     right = line[a] % 2 == 0
     xa = np.where(right, x1[a], x0[a])
     xb = np.where(right, x1[b], x0[b])
     length = np.hypot(xb - xa, y[b] - y[a])
     ok = length <= MAX_LINK_SPACINGS * spacing
     a, b, xa, xb, length = a[ok], b[ok], xa[ok], xb[ok], length[ok]
-    seg = np.stack([np.column_stack([xa, y[a]]), np.column_stack([xb, y[b]])], axis=1)
-    inside = shapely.covered_by(shapely.linestrings(seg), shapely.buffer(region, INSIDE_TOLERANCE))
+    ends = _rotate(np.column_stack([xa, y[a], xb, y[b]]).reshape(-1, 2), angle_deg)
+    links = shapely.linestrings(ends.reshape(-1, 2, 2))
+    inside = shapely.covers(containers[owner[a]], links)
     a, b, length = a[inside], b[inside], length[inside]
     order = np.argsort(length, kind="stable")
     a, b = a[order], b[order]
@@ -121,11 +134,12 @@ def _links(region, line, x0, x1, y, spacing: float) -> tuple[np.ndarray, np.ndar
     return a[np.sort(first_b)], b[np.sort(first_b)]
 
 
-def _serpentines(line, x0, x1, y, a, b) -> tuple[np.ndarray, np.ndarray]:
-    """Order linked segments into chains: ``(points (2n, 2), chain id per point)``."""
+def _serpentines(line, x0, x1, y, owner, a, b) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Order linked segments into chains: ``(points (2n, 2), chain id per point, owner
+    per chain)``."""
     n = len(line)
     graph = coo_matrix((np.ones(len(a)), (a, b)), shape=(n, n))
-    _, chain = connected_components(graph, directed=False)
+    n_chains, chain = connected_components(graph, directed=False)
     order = np.lexsort((line, chain))
     forward = line[order] % 2 == 0
     start = np.where(forward, x0[order], x1[order])
@@ -133,27 +147,40 @@ def _serpentines(line, x0, x1, y, a, b) -> tuple[np.ndarray, np.ndarray]:
     pts = np.empty((2 * n, 2))
     pts[0::2, 0], pts[1::2, 0] = start, end
     pts[0::2, 1] = pts[1::2, 1] = y[order]
-    return pts, np.repeat(chain[order], 2)
+    chain_owner = np.empty(n_chains, dtype=np.int64)
+    chain_owner[chain] = owner
+    return pts, np.repeat(chain[order], 2), chain_owner
 
 
-def line_fill(region, spacing: float, angle_deg: float, width: float, *, link: bool = True):
-    """Parallel lines across ``region`` at ``spacing`` and ``angle_deg``, as polylines.
+def line_fill(regions, spacing: float, angle_deg: float, width: float, *, link: bool = True):
+    """Parallel lines across one region or many disjoint ones at ``spacing`` and
+    ``angle_deg``, as polylines (one scanline pass for all regions).
 
     Returns:
-        ``(points, chain)``: the ``(M, 2)`` vertices of every polyline in the bed frame
-        and, per vertex, the index of its polyline (vertices of one polyline contiguous).
-        Lines shorter than ``width`` are dropped.
+        ``(points, chain, owner)``: the ``(M, 2)`` vertices of every polyline in the bed
+        frame; per vertex, the index of its polyline (vertices of one polyline
+        contiguous); per polyline, the index of the region it fills. Lines shorter than
+        ``width`` are dropped; links never join two regions.
     """
-    if region.is_empty or spacing <= 0:
-        return np.empty((0, 2)), np.empty(0, int)
-    coords, ring, _ = ring_groups(region)
-    rotated = shapely.transform(region, lambda xy: _rotate(xy, -angle_deg)) if link else None
-    line, x0, x1, y = _scan_segments(_rotate(coords, -angle_deg), ring, spacing, width)
+    regions = np.atleast_1d(np.asarray(regions, dtype=object))
+    empty = (np.empty((0, 2)), np.empty(0, int), np.empty(0, int))
+    if spacing <= 0:
+        return empty
+    coords, ring, ring_owner = ring_groups(regions)
+    if len(coords) == 0:
+        return empty
+    line, x0, x1, y, src = _scan_segments(_rotate(coords, -angle_deg), ring, spacing, width)
     if len(line) == 0:
-        return np.empty((0, 2)), np.empty(0, int)
-    a, b = _links(rotated, line, x0, x1, y, spacing) if link else (np.empty(0, int), np.empty(0, int))
-    pts, chain = _serpentines(line, x0, x1, y, a, b)
-    return _rotate(pts, angle_deg), chain
+        return empty
+    owner = ring_owner[src]
+    if link:
+        containers = shapely.buffer(regions, INSIDE_TOLERANCE, join_style="mitre")
+        shapely.prepare(containers)
+        a, b = _links(containers, owner, line, x0, x1, y, spacing, angle_deg)
+    else:
+        a = b = np.empty(0, int)
+    pts, chain, chain_owner = _serpentines(line, x0, x1, y, owner, a, b)
+    return _rotate(pts, angle_deg), chain, chain_owner
 
 
 def _lengths(points: np.ndarray, chain: np.ndarray) -> tuple[float, float]:
@@ -191,7 +218,7 @@ def rectilinear(
     if density <= 0 or region.is_empty:
         return []
     spacing = bead_spacing(width, height) * 100.0 / density
-    points, chain = line_fill(region, spacing, angle_deg, width, link=link)
+    points, chain, _ = line_fill(region, spacing, angle_deg, width, link=link)
     lines, links = _lengths(points, chain)
     target = region.area * density / 100.0 / bead_spacing(width, height)
     if lines > 0 and abs(lines + links - target) > VOLUME_TOLERANCE * target:
@@ -199,7 +226,7 @@ def rectilinear(
         corrected = lines * spacing / (target - links if link else target)
         best = (abs(lines + links - target), points, chain)
         for factor in SPACING_CANDIDATES:
-            pts, ch = line_fill(region, corrected * factor, angle_deg, width, link=link)
+            pts, ch, _ = line_fill(region, corrected * factor, angle_deg, width, link=link)
             error = abs(sum(_lengths(pts, ch)) - target)
             if error < best[0]:
                 best = (error, pts, ch)
@@ -207,13 +234,41 @@ def rectilinear(
     return open_paths(points, chain, role, color, width, height)
 
 
-def open_paths(points: np.ndarray, chain: np.ndarray, role: Role, color: int, width: float, height: float) -> list[Path]:
-    """Open :class:`Path` objects from flat polyline vertices grouped by ``chain``."""
+def solid_fill(regions, angle_deg: float, width: float, height: float, role: Role, colors) -> list[Path]:
+    """100 % rectilinear fill of many disjoint regions in one scanline pass.
+
+    Lines are ``s`` apart (:func:`~fgslice.toolpaths.walls.bead_spacing`) and linked
+    into serpentines within each region; the paths of region ``r`` get ``colors[r]``.
+    Instead of trying other spacings, each region's beads get the width that deposits
+    exactly its volume: with ``L`` its lines plus links, ``s' = area / L`` and
+    ``w' = s' + h (1 - pi/4)``, clipped to ``[h, MAX_WIDTH_FACTOR w]`` (links add a few
+    percent of length on narrow regions, so ``w'`` is slightly below ``w`` there).
+    """
+    regions = np.atleast_1d(np.asarray(regions, dtype=object))
+    points, chain, owner = line_fill(regions, bead_spacing(width, height), angle_deg, width)
+    if len(points) == 0:
+        return []
+    seg = np.hypot(*np.diff(points, axis=0).T) * (chain[1:] == chain[:-1])
+    length = np.bincount(owner[chain[:-1]], seg, minlength=len(regions))
+    share = np.divide(shapely.area(regions), length, out=np.zeros(len(regions)), where=length > 0)
+    widths = np.clip(share + height * (1 - np.pi / 4), height, MAX_WIDTH_FACTOR * width)
+    return open_paths(points, chain, role, np.asarray(colors, dtype=np.int64)[owner], widths[owner], height)
+
+
+def open_paths(points: np.ndarray, chain: np.ndarray, role: Role, color, width, height: float) -> list[Path]:
+    """Open :class:`Path` objects from flat polyline vertices grouped by ``chain``
+    (``color`` and ``width``: one value, or one per polyline)."""
     if len(points) == 0:
         return []
     starts = np.flatnonzero(np.r_[True, chain[1:] != chain[:-1]])
     ends = np.r_[starts[1:], len(points)]
-    return [Path(points[s:e], role, color, width, height) for s, e in zip(starts.tolist(), ends.tolist()) if e - s >= 2]
+    colors = np.broadcast_to(np.asarray(color, dtype=np.int64), starts.shape).tolist()
+    widths = np.broadcast_to(np.asarray(width, dtype=float), starts.shape).tolist()
+    return [
+        Path(points[s:e], role, c, w, height)
+        for s, e, c, w in zip(starts.tolist(), ends.tolist(), colors, widths)
+        if e - s >= 2
+    ]
 
 
 @dataclass(frozen=True)
@@ -294,10 +349,6 @@ def concentric_levels(regions, first: float, spacing: float, width: float, heigh
         return Loops(np.empty((0, 2)), empty, empty, empty, np.empty(0))
     coords, ring, src = ring_groups(np.concatenate(geoms))
     return Loops(coords, ring, np.concatenate(owners)[src], np.concatenate(levels)[src], np.concatenate(widths)[src])
-
-
-MAX_WIDTH_FACTOR = 1.5
-"""Widest dense loop, in nominal bead widths (a loop may be widened to balance volume)."""
 
 
 def dense_levels(regions, first: float, spacing: float, width: float, height: float, *,

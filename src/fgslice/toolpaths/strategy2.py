@@ -26,7 +26,7 @@ import shapely
 
 from fgslice.settings import Settings
 from fgslice.slicing.layers import LayerRegions
-from fgslice.toolpaths.infill import dense_levels, rectilinear, uncovered_area
+from fgslice.toolpaths.infill import dense_levels, solid_fill, uncovered_area
 from fgslice.toolpaths.paths import LayerPaths, Role
 from fgslice.toolpaths.simplify import simplify_paths
 from fgslice.toolpaths.walls import bead_spacing, offset
@@ -47,13 +47,11 @@ def layer_paths(regions: LayerRegions, settings: Settings) -> LayerPaths:
         return out
     levels = None if settings.fill_pattern == "concentric" else 1
     loops = dense_levels(faces, w / 2, s, w, h, max_levels=levels)
-    out.paths = loops.paths(_roles(loops, regions.outline, w), loops.region, h)
+    out.paths = simplify_paths(loops.paths(_roles(loops, regions.outline, w), loops.region, h), settings.gcode_resolution)
     if settings.fill_pattern == "rectilinear":
         inner = offset(faces, -(w / 2 + s / 2))
         angle = settings.infill_angle + 90.0 * (regions.index % 2)
-        for color, area in enumerate(inner):
-            out.paths += rectilinear(area, 100.0, angle, w, h, Role.SOLID_INFILL, color=color)
-    out.paths = simplify_paths(out.paths, settings.gcode_resolution)
+        out.paths += solid_fill(inner, angle, w, h, Role.SOLID_INFILL, np.arange(len(faces)))
     out.uncovered_mm2 = uncovered_area(faces, w)
     return out
 
@@ -74,6 +72,6 @@ def _roles(loops, outline, width: float) -> np.ndarray:
     rings = shapely.linestrings(loops.coords[outer], indices=np.searchsorted(first, loops.ring[outer]))
     boundary = shapely.boundary(outline)
     shapely.prepare(boundary)
-    surface = shapely.dwithin(rings, boundary, width / 2 + SURFACE_TOLERANCE)
+    surface = shapely.dwithin(boundary, rings, width / 2 + SURFACE_TOLERANCE)
     roles[first[surface]] = Role.EXTERNAL_PERIMETER
     return roles
