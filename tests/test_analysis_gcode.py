@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from fgslice.analysis.fidelity import fidelity
-from fgslice.analysis.simulate import read_header, simulate
+from fgslice.analysis.simulate import simulate
 from fgslice.errors import GcodeError
+from fgslice.machine.gcode_header import parse_header
 from fgslice.settings import Settings, load_settings
 from fgslice.slicing.layers import Placement
 from test_analysis_calibrate import StepBox
@@ -68,10 +69,10 @@ def test_simulates_another_slicers_absolute_e_gcode():
 
 def test_header_comments_give_placement_and_palette():
     text = "; colors = 12\n; placement_offset = 110,110.5,0\nG1 X1 Y1 E1\n; colors = 3\n"
-    header = read_header(text)
+    header = parse_header(text)
     assert header.colors == 12 and header.placement_offset == (110.0, 110.5, 0.0)
     with pytest.raises(GcodeError) as info:
-        read_header("G1 X1\n; placement_offset = 1,2\n", "part.gcode")
+        parse_header("G1 X1\n; placement_offset = 1,2\n", "part.gcode")
     assert info.value.line == 2 and info.value.file == "part.gcode"
 
 

@@ -7,6 +7,7 @@ import pytest
 import shapely
 
 from fgslice.design import api
+from fgslice.machine.gcode_header import read_header
 from fgslice.machine.gcode_reader import read_gcode
 from fgslice.pipeline import slice_to_gcode
 from fgslice.settings import load_settings
@@ -26,20 +27,8 @@ def _extruded_volume(program, settings) -> float:
     return float(program.e[printing].sum() * filament_area)
 
 
-def _read_header(path) -> dict[str, str]:
-    out = {}
-    with open(path, encoding="utf-8") as handle:
-        for line in handle:
-            if line.startswith("; ") and " = " in line:
-                key, _, value = line[2:].partition(" = ")
-                out.setdefault(key.strip(), value.strip())
-            if line.startswith(";LAYER_CHANGE"):
-                break
-    return out
-
-
 def _offset(path) -> np.ndarray:
-    return np.array([float(v) for v in _read_header(path)["placement_offset"].split(",")])
+    return np.array(read_header(path).placement_offset)
 
 
 GRADIENT_X = api.fgrade(["x/40 + 0.5", "0.5 - x/40"], ["blue", "yellow"], api.rectprism(40, 20, 2))

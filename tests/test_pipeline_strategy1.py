@@ -9,6 +9,7 @@ import pytest
 import shapely
 
 from fgslice.design import load_design
+from fgslice.machine.gcode_header import read_header
 from fgslice.machine.gcode_reader import read_gcode
 from fgslice.pipeline import slice_to_gcode
 from fgslice.settings import load_settings
@@ -23,19 +24,8 @@ def _slice(tmp_path, **overrides):
     out = tmp_path / "dogbone.gcode"
     result = slice_to_gcode(design, settings, out, jobs=1)
     program = read_gcode(out)
-    offset = np.array([float(v) for v in _header(out)["placement_offset"].split(",")])
+    offset = np.array(read_header(out).placement_offset)
     return design, settings, program, result.stats, offset
-
-
-def _header(path) -> dict[str, str]:
-    out = {}
-    for line in path.read_text().splitlines():
-        if line.startswith(";LAYER_CHANGE"):
-            break
-        if line.startswith("; ") and " = " in line:
-            key, _, value = line[2:].partition(" = ")
-            out.setdefault(key, value)
-    return out
 
 
 def _part_moves(program):

@@ -27,8 +27,7 @@ coordinates of a trace are in the bed frame (``bed = design + placement offset``
 
 from __future__ import annotations
 
-import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from os import PathLike
 from pathlib import Path as FilePath
 
@@ -36,6 +35,7 @@ import numpy as np
 
 from fgslice.design.base import Design, Material
 from fgslice.errors import GcodeError, SettingsError, SliceError
+from fgslice.machine.gcode_header import GcodeHeader, parse_header
 from fgslice.slicing.layers import Placement
 
 #: Per-interval decay exponent cap: beyond it the previous state weighs < 5e-18.
@@ -424,53 +424,7 @@ SIMULATION_KEYS = (
     "temperature_a", "temperature_b", "nozzle_temperature", "filament_diameter", "layer_height", "bead_width",
     "travel_speed", "bed_x", "bed_y", "center", "position_x", "position_y",
 )
-_HEADER = re.compile(r"^;\s*(placement_offset|" + "|".join(SIMULATION_KEYS) + r")\s*=\s*(.*?)\s*$", re.MULTILINE)
 _NON_PART_ROLES = ("skirt", "brim", "wipe", "prime", "purge", "custom")
-
-
-@dataclass(frozen=True)
-class GcodeHeader:
-    """What the simulator reads from ``; key = value`` comments of a G-code file.
-
-    Attributes:
-        placement_offset: ``bed = design + offset`` (mm), or None when absent.
-        colors: palette size N, or None when absent.
-        settings: the file's values of :data:`SIMULATION_KEYS` as written (strings), to
-            be used as ``load_settings(profile, overrides)`` overrides when simulating
-            without an explicit profile.
-    """
-
-    placement_offset: tuple[float, float, float] | None = None
-    colors: int | None = None
-    settings: dict[str, str] = field(default_factory=dict)
-
-
-def read_header(text: str, file: str | None = None) -> GcodeHeader:
-    """Scan the header of G-code text (everything before the first ``;LAYER_CHANGE``) for
-    ``; placement_offset = dx,dy,dz``, ``; colors = N`` and the other
-    :data:`SIMULATION_KEYS` comments (the first occurrence of a key wins)."""
-    end = text.find(";LAYER_CHANGE")
-    found: dict[str, tuple[str, int]] = {}
-    for match in _HEADER.finditer(text, 0, len(text) if end < 0 else end):
-        found.setdefault(match.group(1), (match.group(2), text.count("\n", 0, match.start()) + 1))
-    offset = colors = None
-    if "placement_offset" in found:
-        value, line = found["placement_offset"]
-        try:
-            parts = tuple(float(p) for p in value.split(","))
-        except ValueError:
-            parts = ()
-        if len(parts) != 3 or not all(np.isfinite(parts)):
-            raise GcodeError(f"placement_offset '{value}' is not three numbers", file=file, line=line,
-                             hint="expected '; placement_offset = dx,dy,dz' in mm")
-        offset = parts
-    if "colors" in found:
-        value, line = found["colors"]
-        if not value.isdigit() or int(value) < 1:
-            raise GcodeError(f"colors '{value}' is not a palette size", file=file, line=line, hint="expected '; colors = N'")
-        colors = int(value)
-    values = {key: value for key, (value, _) in found.items() if key != "placement_offset"}
-    return GcodeHeader(offset, colors, values)
 
 
 def simulation_settings(gcode: str | PathLike | bytes, profile: str | None = None, overrides: dict[str, str] | None = None):
@@ -486,7 +440,7 @@ def simulation_settings(gcode: str | PathLike | bytes, profile: str | None = Non
 
     if profile is not None:
         return load_settings(profile, overrides)
-    values = dict(read_header(*_gcode_text(gcode)).settings)
+    values = {k: v for k, v in parse_header(*_gcode_text(gcode)).settings.items() if k in SIMULATION_KEYS}
     name = values.pop("profile_name", None)
     values.update(overrides or {})
     return load_settings(name if name in builtin_profiles() else None, values)
@@ -607,7 +561,7 @@ def simulate(
         program = gcode
     else:
         text, name = _gcode_text(gcode)
-        header = read_header(text, name)
+        header = parse_header(text, name)
         program = read_gcode(text)
     if settings.dialect == "temperature" and len(design.materials) != 2:
         raise SettingsError(

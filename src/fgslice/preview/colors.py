@@ -1,13 +1,12 @@
 """Display colors of what a G-code commands, for previews.
 
 Mixtures are drawn as the volume-weighted mix of their materials' colors in linear-light
-sRGB (the same model as :mod:`fgslice.analysis.fidelity`): each material's sRGB is
-decoded to linear light, mixed by the fractions, and encoded back. Alpha mixes linearly.
+sRGB (:mod:`fgslice.colors`, the same model as :mod:`fgslice.analysis.fidelity`).
 
 What a file's moves mean comes from its header comments, written by
 :class:`fgslice.machine.gcode.GcodeWriter` (``; materials = blue,yellow``,
 ``; colors = N``, ``; dialect = ...``, ``; placement_offset = dx,dy,dz``,
-``; temperature_a = ...``): :class:`PrintInfo`. A state is colored
+``; temperature_a = ...``), read by :mod:`fgslice.machine.gcode_header`. A state is colored
 
 * ``mix`` (marlin-mixing dialects, or any file with ``M165``/``M163``): by its mixing
   factors, normalized;
@@ -22,14 +21,15 @@ States that command nothing known (moves before the first state change) are gray
 from __future__ import annotations
 
 import os
-import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
+from fgslice.colors import materials_rgba, mix_rgba
 from fgslice.design.base import Material
 from fgslice.design.materials import builtin_library
 from fgslice.errors import DesignError, GcodeError
+from fgslice.machine.gcode_header import GcodeHeader, parse_header, read_header
 from fgslice.machine.gcode_reader import GcodeProgram, read_gcode
 from fgslice.slicing.palette import Palette
 
@@ -37,39 +37,7 @@ UNKNOWN_RGBA = (0.62, 0.62, 0.62, 1.0)
 SINGLE_RGBA = (0.93, 0.45, 0.10, 1.0)
 TEMPERATURE_CMAP = "coolwarm"
 DEFAULT_MATERIALS = ("cyan", "magenta", "yellow", "black", "red", "green")
-_HEADER_LINE = re.compile(r"^;\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*(.*?)\s*$")
-_COLOR_LINE = re.compile(r"^;\s*color\s+(\d+)\s*=\s*(.*?)\s*(?::\s*(.*))?$")
 _HEADER_BYTES = 1 << 20
-
-
-def srgb_to_linear(c: np.ndarray) -> np.ndarray:
-    """sRGB (0-1) to linear light (IEC 61966-2-1 transfer function)."""
-    c = np.asarray(c, dtype=float)
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-
-
-def linear_to_srgb(c: np.ndarray) -> np.ndarray:
-    """Linear light (0-1) to sRGB (0-1), clipped to [0, 1]."""
-    c = np.clip(np.asarray(c, dtype=float), 0.0, 1.0)
-    return np.where(c <= 0.0031308, c * 12.92, 1.055 * c ** (1 / 2.4) - 0.055)
-
-
-def mix_rgba(fractions: np.ndarray, rgba: np.ndarray) -> np.ndarray:
-    """Display RGBA ``(..., 4)`` in [0, 1] of mixtures ``(..., k)`` of materials ``rgba`` ``(k, 4)``.
-
-    RGB mixes in linear light, alpha linearly; fractions are used as given (callers
-    normalize them).
-    """
-    rgba = np.asarray(rgba, dtype=float)
-    f = np.asarray(fractions, dtype=float)
-    rgb = linear_to_srgb(f @ srgb_to_linear(rgba[:, :3]))
-    alpha = np.clip(f @ rgba[:, 3], 0.0, 1.0)
-    return np.concatenate([rgb, alpha[..., None]], axis=-1)
-
-
-def materials_rgba(materials: list[Material]) -> np.ndarray:
-    """``(k, 4)`` RGBA of ``materials``."""
-    return np.array([m.rgba for m in materials], dtype=float).reshape(-1, 4)
 
 
 def fraction_label(fractions: np.ndarray, names: list[str]) -> str:
@@ -79,141 +47,72 @@ def fraction_label(fractions: np.ndarray, names: list[str]) -> str:
 
 
 @dataclass(frozen=True)
-class PrintInfo:
-    """What a G-code file's header says about its colors (all optional).
+class Printout:
+    """A read G-code file: its moves, what its header says and the materials it prints.
 
     Attributes:
-        materials: the design's materials, in the order of the mixing channels.
-        colors: palette size N.
-        dialect: the machine dialect name (``marlin-mixing``, ``toolchanger``, ...).
-        placement_offset: ``bed = design + offset``, mm.
-        temperature_a: nozzle target at 100 % of the first material, degC.
-        temperature_b: nozzle target at 100 % of the second material, degC.
-        labels: palette color index -> its label (``; color i = label : commands``).
-        commands: palette color index -> the commands that set it.
-        settings: every ``; key = value`` comment, as text.
+        program: the moves.
+        info: the header comments (empty for a bare program).
+        name: the file name, if read from a file.
+        materials: the header's materials looked up in the built-in library, or the
+            design's; None when unknown.
     """
-
-    materials: list[Material] | None = None
-    colors: int | None = None
-    dialect: str | None = None
-    placement_offset: tuple[float, float, float] | None = None
-    temperature_a: float | None = None
-    temperature_b: float | None = None
-    labels: dict[int, str] = field(default_factory=dict)
-    commands: dict[int, str] = field(default_factory=dict)
-    settings: dict[str, str] = field(default_factory=dict)
-
-
-def _number(values: dict[str, tuple[str, int]], key: str, file: str | None) -> float | None:
-    if key not in values:
-        return None
-    text, line = values[key]
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not np.isfinite(value):
-        raise GcodeError(f"header '{key}' value '{text}' is not a number", file=file, line=line)
-    return value
-
-
-def parse_header(text: str, file: str | None = None) -> PrintInfo:
-    """The :class:`PrintInfo` of G-code ``text`` (its comments before the first layer change).
-
-    Raises:
-        GcodeError: a header value fgslice wrote is malformed (line given), or names an
-            unknown material.
-    """
-    head = text.split(";LAYER_CHANGE", 1)[0]
-    values: dict[str, tuple[str, int]] = {}
-    labels: dict[int, str] = {}
-    commands: dict[int, str] = {}
-    for number, line in enumerate(head.splitlines(), 1):
-        match = _COLOR_LINE.match(line)
-        if match:
-            labels.setdefault(int(match.group(1)), match.group(2))
-            commands.setdefault(int(match.group(1)), match.group(3) or "")
-            continue
-        match = _HEADER_LINE.match(line)
-        if match:
-            values.setdefault(match.group(1), (match.group(2), number))
-    materials = None
-    if values.get("materials", ("", 0))[0]:
-        names, line = values["materials"]
-        library = builtin_library()
-        try:
-            materials = [library.get(n.strip()) for n in names.split(",")]
-        except DesignError as exc:
-            raise GcodeError(f"header 'materials': {exc.message}", file=file, line=line, hint=exc.hint) from None
-    colors = None
-    if "colors" in values:
-        text_value, line = values["colors"]
-        if not text_value.isdigit() or int(text_value) < 1:
-            raise GcodeError(f"header 'colors' value '{text_value}' is not a palette size", file=file, line=line)
-        colors = int(text_value)
-    offset = None
-    if "placement_offset" in values:
-        text_value, line = values["placement_offset"]
-        try:
-            parts = tuple(float(p) for p in text_value.split(","))
-        except ValueError:
-            parts = ()
-        if len(parts) != 3 or not np.all(np.isfinite(parts)):
-            raise GcodeError(f"header 'placement_offset' value '{text_value}' is not three numbers", file=file,
-                             line=line, hint="expected '; placement_offset = dx,dy,dz' in mm")
-        offset = parts
-    return PrintInfo(
-        materials=materials,
-        colors=colors,
-        dialect=values["dialect"][0] if "dialect" in values else None,
-        placement_offset=offset,
-        temperature_a=_number(values, "temperature_a", file),
-        temperature_b=_number(values, "temperature_b", file),
-        labels=labels,
-        commands=commands,
-        settings={k: v for k, (v, _) in values.items()},
-    )
-
-
-@dataclass(frozen=True)
-class Printout:
-    """A read G-code file: its moves and what its header says."""
 
     program: GcodeProgram
-    info: PrintInfo
+    info: GcodeHeader
     name: str | None = None
+    materials: list[Material] | None = None
 
 
-def load_printout(source: str | os.PathLike | bytes | GcodeProgram | Printout, info: PrintInfo | None = None) -> Printout:
+def header_materials(info: GcodeHeader, file: str | None = None) -> list[Material] | None:
+    """The built-in materials named by the header's ``; materials = a,b``, or None without it.
+
+    Raises:
+        GcodeError: a name the built-in library does not know (with the header line).
+    """
+    if not info.materials:
+        return None
+    library = builtin_library()
+    try:
+        return [library.get(name) for name in info.materials]
+    except DesignError as exc:
+        raise GcodeError(f"header 'materials': {exc.message}", file=file, line=info.lines.get("materials"),
+                         hint=exc.hint) from None
+
+
+def _read_source_header(source: str | os.PathLike | bytes) -> tuple[str | None, GcodeHeader]:
+    """The file name (None for bytes or text) and header of G-code given as a path, bytes or text."""
+    if isinstance(source, bytes):
+        return None, parse_header(source[:_HEADER_BYTES].decode("utf-8", errors="replace"))
+    if isinstance(source, os.PathLike) or ("\n" not in source and os.path.isfile(source)):
+        return str(source), read_header(source)
+    if "\n" not in source:
+        raise GcodeError(f"G-code file not found: {source}", file=source)
+    return None, parse_header(source)
+
+
+def load_printout(source: str | os.PathLike | bytes | GcodeProgram | Printout, info: GcodeHeader | None = None,
+                  materials: list[Material] | None = None) -> Printout:
     """A :class:`Printout` from a G-code path, its bytes or text, a read program or a printout.
 
     ``info`` replaces the header's (needed for a bare :class:`GcodeProgram`, which has
-    no header; without it such a program is drawn without material colors).
+    no header; without it such a program is drawn without material colors);
+    ``materials`` replaces the header's materials (e.g. the design's own).
 
     Raises:
         GcodeError: not readable G-code, or a malformed header.
     """
     if isinstance(source, Printout):
-        return source if info is None else Printout(source.program, info, source.name)
-    if isinstance(source, GcodeProgram):
-        return Printout(source, info or PrintInfo())
-    name = None
-    if isinstance(source, bytes):
-        head = source[:_HEADER_BYTES].decode("utf-8", errors="replace")
-    elif isinstance(source, os.PathLike) or ("\n" not in source and os.path.isfile(source)):
-        name = str(source)
-        try:
-            with open(source, "rb") as handle:
-                head = handle.read(_HEADER_BYTES).decode("utf-8", errors="replace")
-        except OSError as exc:
-            raise GcodeError(f"cannot read G-code: {exc.strerror}", file=name) from None
-    elif "\n" not in source:
-        raise GcodeError(f"G-code file not found: {source}", file=source)
+        if info is None:
+            return Printout(source.program, source.info, source.name, materials or source.materials)
+        program, name, header = source.program, source.name, info
+    elif isinstance(source, GcodeProgram):
+        program, name, header = source, None, GcodeHeader()
     else:
-        head = source[:_HEADER_BYTES]
-    program = read_gcode(source)
-    return Printout(program, info or parse_header(head, name), name)
+        name, header = _read_source_header(source)
+        program = read_gcode(source)
+    info = info or header
+    return Printout(program, info, name, materials or header_materials(info, name))
 
 
 @dataclass(frozen=True)
@@ -260,8 +159,8 @@ def _mode(printout: Printout) -> str:
 
 def _materials(printout: Printout, k: int) -> list[Material]:
     """The header's materials, else ``k`` default ones (cyan, magenta, yellow, ...)."""
-    if printout.info.materials:
-        return printout.info.materials
+    if printout.materials:
+        return printout.materials
     library = builtin_library()
     return [library.get(DEFAULT_MATERIALS[i % len(DEFAULT_MATERIALS)]) for i in range(k)]
 
@@ -272,11 +171,11 @@ def _palette_colors(printout: Printout, index: np.ndarray) -> tuple[np.ndarray, 
     known = index >= 0
     out = np.tile(UNKNOWN_RGBA, (len(index), 1))
     labels: dict[int, str] = {}
-    if info.materials and info.colors:
-        palette = Palette(len(info.materials), info.colors)
-        names = [m.name for m in info.materials]
+    if printout.materials and info.colors:
+        palette = Palette(len(printout.materials), info.colors)
+        names = [m.name for m in printout.materials]
         valid = known & (index < palette.size)
-        out[valid] = mix_rgba(palette.centers[index[valid]], materials_rgba(info.materials))
+        out[valid] = mix_rgba(palette.centers[index[valid]], materials_rgba(printout.materials))
         labels = {int(c): fraction_label(palette.centers[c], names) for c in np.unique(index[valid])}
     else:
         from matplotlib import colormaps
@@ -293,7 +192,7 @@ def state_colors(printout: Printout) -> StateColors:
     n = len(states)
     mode = _mode(printout)
     if mode == "mix":
-        k = max([len(printout.info.materials or ())] + [len(s.mix) for s in states if s.mix is not None])
+        k = max([len(printout.materials or ())] + [len(s.mix) for s in states if s.mix is not None])
         materials = _materials(printout, k)
         k = len(materials)
         fractions = np.zeros((n, k))

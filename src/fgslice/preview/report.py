@@ -19,9 +19,10 @@ import numpy as np
 
 from fgslice.design.base import Design
 from fgslice.machine.gcode import fgslice_version, format_duration
+from fgslice.machine.gcode_header import GcodeHeader
 from fgslice.machine.gcode_reader import GcodeProgram
 from fgslice.output import atomic_output, check_writable
-from fgslice.preview.colors import PrintInfo, load_printout, materials_rgba, mix_rgba
+from fgslice.preview.colors import load_printout, materials_rgba, mix_rgba
 from fgslice.preview.layers import sheet_png
 from fgslice.preview.thumbnails import thumbnail_png
 from fgslice.slicing.palette import Palette
@@ -181,11 +182,11 @@ def report_html(*, stats: Mapping, settings, palette: Palette, dialect, program,
                 fidelity: Mapping | None = None, title: str | None = None) -> str:
     """The report's HTML text (see :func:`write_report`)."""
     info = None
+    design_materials = list(design.materials) if design is not None else None
     if isinstance(program, GcodeProgram):
-        info = PrintInfo(materials=list(design.materials) if design is not None else None, colors=palette.size,
-                         dialect=getattr(settings, "dialect", None))
-    printout = load_printout(program, info)
-    materials = printout.info.materials or (list(design.materials) if design is not None else None)
+        info = GcodeHeader(colors=palette.size, dialect=getattr(settings, "dialect", None))
+    printout = load_printout(program, info, design_materials if info is not None else None)
+    materials = printout.materials or design_materials
     title = title or (f"fgslice report: {printout.name}" if printout.name else "fgslice report")
     now = datetime.now(timezone.utc)
     parts = [

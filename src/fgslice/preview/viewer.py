@@ -44,11 +44,12 @@ from importlib import resources
 from pathlib import Path
 from urllib.parse import urlsplit
 
-import colour
 import numpy as np
 
+from fgslice.colors import linear_to_srgb, mix_linear
 from fgslice.design.materials import builtin_library
 from fgslice.errors import FgsliceError
+from fgslice.machine.gcode_header import GcodeHeader, read_footer, read_header
 from fgslice.machine.gcode_reader import GcodeProgram, MachineState, read_gcode
 from fgslice.slicing.palette import LETTERS, Palette
 
@@ -74,9 +75,7 @@ ROLE_COLORS = {
 
 _MIME = {".html": "text/html; charset=utf-8", ".js": "text/javascript; charset=utf-8",
          ".css": "text/css; charset=utf-8", "": "text/plain; charset=utf-8"}
-_KEY_VALUE = re.compile(rb"^;[ \t]*([^=\n;]+?)[ \t]*=[ \t]*([^\r\n]*?)[ \t\r]*$", re.MULTILINE)
 _HEADER_STATS = ("materials", "colors", "dialect", "profile_name", "strategy", "layer_height", "bead_width")
-_COLOR_LABEL = re.compile(r"^color (\d+)$")
 
 
 class ViewerError(FgsliceError):
@@ -100,31 +99,13 @@ def categorical_colors(n: int) -> list[tuple[int, int, int]]:
 def mix_colors(fractions: np.ndarray, rgb: np.ndarray) -> np.ndarray:
     """sRGB colors (0-255 uint8, ``(..., 3)``) of compositions ``(..., k)`` of materials
     whose sRGB colors (0-1) are ``rgb`` ``(k, 3)``, mixed linearly in linear sRGB."""
-    linear = colour.cctf_decoding(np.asarray(rgb, dtype=float), function="sRGB")
-    mixed = np.clip(np.asarray(fractions, dtype=float) @ linear, 0.0, 1.0)
-    return np.round(255 * colour.cctf_encoding(mixed, function="sRGB")).astype(np.uint8)
+    return np.round(255 * linear_to_srgb(mix_linear(fractions, rgb))).astype(np.uint8)
 
 
-def _comments(data: bytes) -> tuple[dict[str, str], dict[str, str]]:
-    """``; key = value`` comments of the header (before the first ``;LAYER_CHANGE``) and of
-    the footer (after the last one); the first occurrence of a header key wins."""
-    first, last = data.find(b";LAYER_CHANGE"), data.rfind(b";LAYER_CHANGE")
-    head = data if first < 0 else data[:first]
-    tail = b"" if last < 0 else data[last:]
-
-    def pairs(text: bytes) -> dict[str, str]:
-        out: dict[str, str] = {}
-        for key, value in _KEY_VALUE.findall(text):
-            out.setdefault(key.decode("utf-8", "replace"), value.decode("utf-8", "replace"))
-        return out
-
-    return pairs(head), pairs(tail)
-
-
-def _material_colors(header: dict[str, str]) -> tuple[list[str], np.ndarray | None]:
+def _material_colors(header: GcodeHeader) -> tuple[list[str], np.ndarray | None]:
     """Material names of the ``materials`` header comment and their sRGB colors (0-1),
     gray for names the built-in library does not know; None without the comment."""
-    names = [n.strip() for n in header.get("materials", "").split(",") if n.strip()]
+    names = list(header.materials)
     if not names:
         return [], None
     library = builtin_library()
@@ -133,13 +114,12 @@ def _material_colors(header: dict[str, str]) -> tuple[list[str], np.ndarray | No
     return names, np.array(rgb, dtype=float)
 
 
-def _palette_centers(header: dict[str, str], n_materials: int) -> np.ndarray | None:
+def _palette_centers(header: GcodeHeader, n_materials: int) -> np.ndarray | None:
     """Palette centers ``(N, k)`` from the ``colors`` header comment, or None."""
-    size = header.get("colors", "")
-    if not size.isdigit() or n_materials < 1:
+    if header.colors is None or n_materials < 1:
         return None
     try:
-        return Palette(n_materials, int(size)).centers
+        return Palette(n_materials, header.colors).centers
     except FgsliceError:
         return None
 
@@ -179,16 +159,11 @@ def _state_label(state: MachineState, palette_labels: dict[int, str], fractions:
     return ", ".join(parts) or "default"
 
 
-def _states_meta(program: GcodeProgram, header: dict[str, str]) -> list[dict]:
+def _states_meta(program: GcodeProgram, header: GcodeHeader) -> list[dict]:
     """Label, display color (sRGB 0-255) and tool of every machine state."""
     names, rgb = _material_colors(header)
     k = len(names)
     centers = _palette_centers(header, k)
-    labels = {}
-    for key, value in header.items():
-        match = _COLOR_LABEL.match(key)
-        if match:
-            labels[int(match.group(1))] = value.split(" : ")[0].strip()
     fractions = [_composition(s, centers, k) if rgb is not None else None for s in program.states]
     known = [i for i, f in enumerate(fractions) if f is not None]
     colors = categorical_colors(len(program.states))
@@ -197,7 +172,7 @@ def _states_meta(program: GcodeProgram, header: dict[str, str]) -> list[dict]:
             colors[i] = tuple(color)
     varying = {name for name in ("tool", "temperature", "flow")
                if len({getattr(s, name) for s in program.states} - {None}) > 1}
-    return [{"label": _state_label(s, labels, f, varying), "color": c, "tool": s.tool}
+    return [{"label": _state_label(s, header.labels, f, varying), "color": c, "tool": s.tool}
             for s, f, c in zip(program.states, fractions, colors)]
 
 
@@ -216,8 +191,8 @@ def _format_mm(value: float) -> str:
     return f"{value:,.1f} mm"
 
 
-def build_viewer_data(program: GcodeProgram, header: dict[str, str], footer: dict[str, str], name: str) -> ViewerData:
-    """The page's data from a read program and its header/footer ``; key = value`` comments."""
+def build_viewer_data(program: GcodeProgram, header: GcodeHeader, footer: dict[str, str], name: str) -> ViewerData:
+    """The page's data from a read program, its header and its footer ``; key = value`` comments."""
     moved = np.any(program.end != program.start, axis=1)
     extruding = moved & (program.e > 0)
     layer = np.maximum(program.layer, 0)
@@ -239,9 +214,10 @@ def build_viewer_data(program: GcodeProgram, header: dict[str, str], footer: dic
              ["size", " x ".join(f"{v:.1f}" for v in hi - lo) + " mm"]]
     if program.faults:
         stats.append(["unreadable words", f"{len(program.faults)} (see fgslice verify)"])
-    stats += [[key, header[key]] for key in _HEADER_STATS if header.get(key)]
+    stats += [[key, header.settings[key]] for key in _HEADER_STATS if header.settings.get(key)]
     stats += [[key, value] for key, value in footer.items()]
-    bed = [float(header[k]) if re.fullmatch(r"\d+(\.\d*)?", header.get(k, "")) else None for k in ("bed_x", "bed_y")]
+    bed = [float(header.settings[k]) if re.fullmatch(r"\d+(\.\d*)?", header.settings.get(k, "")) else None
+           for k in ("bed_x", "bed_y")]
     meta = {
         "name": name,
         "layer_count": n_layers,
@@ -268,11 +244,10 @@ def build_viewer_data(program: GcodeProgram, header: dict[str, str], footer: dic
 
 
 def load_viewer_data(gcode_path: str | os.PathLike) -> ViewerData:
-    """Read a G-code file and build the page's data (GcodeError if it is not G-code)."""
+    """Read a G-code file and build the page's data (GcodeError if it is not G-code or a
+    header value fgslice interprets is malformed)."""
     program = read_gcode(Path(gcode_path))
-    with open(gcode_path, "rb") as handle:
-        header, footer = _comments(handle.read())
-    return build_viewer_data(program, header, footer, Path(gcode_path).name)
+    return build_viewer_data(program, read_header(gcode_path), read_footer(gcode_path), Path(gcode_path).name)
 
 
 def _asset_routes() -> dict[str, tuple[str, bytes]]:
