@@ -17,7 +17,7 @@ link after it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
@@ -49,7 +49,8 @@ MAX_WIDTH_FACTOR = 1.5
 balance volume)."""
 
 INSIDE_TOLERANCE = 1e-4
-"""Slack (mm) when testing that a link lies inside the region."""
+"""Slack (mm) when testing that a link lies inside the region: its ends are moved this far
+inward along their lines, so a link along a straight boundary edge counts as inside."""
 
 
 def _rotate(xy: np.ndarray, angle_deg: float) -> np.ndarray:
@@ -121,8 +122,9 @@ def _links(containers, owner, line, x0, x1, y, spacing: float, angle_deg: float)
     xb = np.where(right, x1[b], x0[b])
     length = np.hypot(xb - xa, y[b] - y[a])
     ok = length <= MAX_LINK_SPACINGS * spacing
-    a, b, xa, xb, length = a[ok], b[ok], xa[ok], xb[ok], length[ok]
-    ends = _rotate(np.column_stack([xa, y[a], xb, y[b]]).reshape(-1, 2), angle_deg)
+    a, b, xa, xb, length, right = a[ok], b[ok], xa[ok], xb[ok], length[ok], right[ok]
+    inward = np.where(right, -INSIDE_TOLERANCE, INSIDE_TOLERANCE)
+    ends = _rotate(np.column_stack([xa + inward, y[a], xb + inward, y[b]]).reshape(-1, 2), angle_deg)
     links = shapely.linestrings(ends.reshape(-1, 2, 2))
     inside = shapely.covers(containers[owner[a]], links)
     a, b, length = a[inside], b[inside], length[inside]
@@ -174,9 +176,8 @@ def line_fill(regions, spacing: float, angle_deg: float, width: float, *, link: 
         return empty
     owner = ring_owner[src]
     if link:
-        containers = shapely.buffer(regions, INSIDE_TOLERANCE, join_style="mitre")
-        shapely.prepare(containers)
-        a, b = _links(containers, owner, line, x0, x1, y, spacing, angle_deg)
+        shapely.prepare(regions)
+        a, b = _links(regions, owner, line, x0, x1, y, spacing, angle_deg)
     else:
         a = b = np.empty(0, int)
     pts, chain, chain_owner = _serpentines(line, x0, x1, y, owner, a, b)
@@ -281,6 +282,9 @@ class Loops:
         region: per ring, the index of the region it fills.
         level: per ring, its offset level (0 = outermost); -1 for gap fills.
         width: per ring, its bead width, mm (narrower than nominal for gap fills).
+        rest: what :func:`dense_levels` leaves to another fill when it stops at
+            ``max_levels`` (parts of the last level eroded by ``s / 2``), else empty.
+        rest_region: per ``rest`` entry, the index of its region.
     """
 
     coords: np.ndarray
@@ -288,11 +292,12 @@ class Loops:
     region: np.ndarray
     level: np.ndarray
     width: np.ndarray
+    rest: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=object))
+    rest_region: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=np.int64))
 
     def paths(self, roles, colors, height: float) -> list[Path]:
         """The loops as closed paths (``roles``/``colors``: one value or one per ring)."""
-        out = split_rings(self.coords, self.ring, roles, colors, 1.0, height)
-        return [Path(p.points, p.role, p.color, w, height, True) for p, w in zip(out, self.width.tolist())]
+        return split_rings(self.coords, self.ring, roles, colors, self.width, height)
 
 
 def concentric_levels(regions, first: float, spacing: float, width: float, height: float, *,
@@ -352,7 +357,7 @@ def concentric_levels(regions, first: float, spacing: float, width: float, heigh
 
 
 def dense_levels(regions, first: float, spacing: float, width: float, height: float, *,
-                 max_levels: int | None = None) -> Loops:
+                 max_levels: int | None = None, eroded=None) -> Loops:
     """Concentric loops filling many regions densely, each deposits its own strip's volume.
 
     Loop ``k`` of region ``r`` is the boundary of a part ``P`` of ``regions[r]`` eroded by
@@ -368,19 +373,23 @@ def dense_levels(regions, first: float, spacing: float, width: float, height: fl
     loop is narrowed or widened so that its part still gets the right volume. With
     ``max_levels`` reached, the rest is filled otherwise: the last loops' territory ends
     at their part eroded by ``s / 2``, where the other fill starts. Parts whose
-    perimeter is shorter than two bead widths are dropped.
+    perimeter is shorter than two bead widths are dropped. ``eroded``, when given, is
+    ``regions`` already eroded by ``first`` (an offset the caller shares); what is left
+    for the other fill is returned as ``Loops.rest``.
     """
     regions = np.atleast_1d(np.asarray(regions, dtype=object))
     trim = height * (1 - np.pi / 4)
-    parts, owner = shapely.get_parts(offset(regions, -first), return_index=True)
+    eroded = offset(regions, -first) if eroded is None else eroded
+    parts, owner = shapely.get_parts(eroded, return_index=True)
     parts, owner = _printable(parts, owner, width)
     geoms, owners, levels, widths = [], [], [], []
+    rest, rest_owner = np.empty(0, dtype=object), np.empty(0, dtype=np.int64)
     level = 0
     while len(parts):
         grow = first if level == 0 else spacing / 2
         area, perimeter = shapely.area(parts), shapely.length(parts)
         if max_levels is not None and level + 1 >= max_levels:
-            rest = offset(parts, -spacing / 2)
+            rest, rest_owner = offset(parts, -spacing / 2), owner
             share = (area + grow * perimeter - shapely.area(rest)) / perimeter
             nxt, src = np.empty(0, dtype=object), np.empty(0, dtype=np.int64)
         else:
@@ -399,7 +408,10 @@ def dense_levels(regions, first: float, spacing: float, width: float, height: fl
         empty = np.empty(0, int)
         return Loops(np.empty((0, 2)), empty, empty, empty, np.empty(0))
     coords, ring, src = ring_groups(np.concatenate(geoms))
-    return Loops(coords, ring, np.concatenate(owners)[src], np.concatenate(levels)[src], np.concatenate(widths)[src])
+    return Loops(
+        coords, ring, np.concatenate(owners)[src], np.concatenate(levels)[src], np.concatenate(widths)[src],
+        rest, rest_owner,
+    )
 
 
 def _printable(parts: np.ndarray, owner: np.ndarray, width: float) -> tuple[np.ndarray, np.ndarray]:
@@ -421,11 +433,13 @@ def concentric(region, density: float, width: float, height: float, role: Role, 
     return loops.paths(role, color, height)
 
 
-def uncovered_area(regions, width: float) -> float:
+def uncovered_area(regions, width: float, eroded=None) -> float:
     """Total area (mm²) of the parts of ``regions`` narrower than a bead.
 
     That is each region minus its opening by ``w / 2`` (erode by half a bead, dilate
-    back): what no bead of width ``w`` fits in.
+    back): what no bead of width ``w`` fits in. ``eroded``, when given, is ``regions``
+    already eroded by ``w / 2``.
     """
     regions = np.atleast_1d(np.asarray(regions, dtype=object))
-    return float(np.sum(shapely.area(regions)) - np.sum(shapely.area(opening(regions, width / 2))))
+    opened = opening(regions, width / 2) if eroded is None else offset(eroded, width / 2)
+    return float(np.sum(shapely.area(regions)) - np.sum(shapely.area(opened)))

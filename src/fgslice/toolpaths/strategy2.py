@@ -46,13 +46,13 @@ def layer_paths(regions: LayerRegions, settings: Settings) -> LayerPaths:
     if len(faces) == 0:
         return out
     levels = None if settings.fill_pattern == "concentric" else 1
-    loops = dense_levels(faces, w / 2, s, w, h, max_levels=levels)
+    eroded = offset(faces, -w / 2)
+    loops = dense_levels(faces, w / 2, s, w, h, max_levels=levels, eroded=eroded)
     out.paths = simplify_paths(loops.paths(_roles(loops, regions.outline, w), loops.region, h), settings.gcode_resolution)
     if settings.fill_pattern == "rectilinear":
-        inner = offset(faces, -(w / 2 + s / 2))
         angle = settings.infill_angle + 90.0 * (regions.index % 2)
-        out.paths += solid_fill(inner, angle, w, h, Role.SOLID_INFILL, np.arange(len(faces)))
-    out.uncovered_mm2 = uncovered_area(faces, w)
+        out.paths += solid_fill(loops.rest, angle, w, h, Role.SOLID_INFILL, loops.rest_region)
+    out.uncovered_mm2 = uncovered_area(faces, w, eroded=eroded)
     return out
 
 

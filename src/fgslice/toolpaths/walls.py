@@ -68,11 +68,11 @@ def ring_groups(geoms) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return coords[~last], index[~last], part_src[ring_part]
 
 
-def split_rings(coords: np.ndarray, index: np.ndarray, roles, colors, width: float, height: float, groups=-1) -> list[Path]:
+def split_rings(coords: np.ndarray, index: np.ndarray, roles, colors, width, height: float, groups=-1) -> list[Path]:
     """Closed :class:`Path` objects from flat ring vertices (as :func:`ring_groups` gives).
 
-    ``roles`` is one :class:`Role` or one per ring; ``colors`` and ``groups`` one int or
-    one per ring.
+    ``roles`` is one :class:`Role` or one per ring; ``colors``, ``width`` (mm) and
+    ``groups`` one value or one per ring.
     """
     if len(coords) == 0:
         return []
@@ -82,9 +82,10 @@ def split_rings(coords: np.ndarray, index: np.ndarray, roles, colors, width: flo
     roles = [roles] * n if isinstance(roles, Role) else list(roles)
     colors = np.broadcast_to(np.asarray(colors, dtype=int), (n,)).tolist()
     groups = np.broadcast_to(np.asarray(groups, dtype=int), (n,)).tolist()
+    widths = np.broadcast_to(np.asarray(width, dtype=float), (n,)).tolist()
     return [
-        Path(coords[a:b], role, color, width, height, closed=True, group=group)
-        for a, b, role, color, group in zip(starts.tolist(), ends.tolist(), roles, colors, groups)
+        Path(coords[a:b], role, color, w, height, closed=True, group=group)
+        for a, b, role, color, w, group in zip(starts.tolist(), ends.tolist(), roles, colors, widths, groups)
     ]
 
 
