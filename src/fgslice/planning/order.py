@@ -11,7 +11,10 @@ Paths with a ``group`` id (the walls of one island, holes included, as
 ``toolpaths.walls.make_walls`` gives them) form a *unit* printed in its list order, so the
 wall order (outer-first or inner-first) survives cutting into colors: a color group
 prints its units first, each entered at the unit whose first path is nearest, every
-path of a unit rotated (closed) or reversed (open) to start nearest the nozzle.
+path of a unit rotated (closed) or reversed (open) to start nearest the nozzle. The
+paths' end points are gathered once per layer, so orienting an open path is a comparison
+of two distances and a closed path one vectorized nearest-vertex search; only paths that
+change get a new :class:`Path`.
 The other paths of a group are toured greedily: from the nozzle position, go to the
 nearest path entry not printed yet. Entries are both ends of an open path (entering at
 the far end reverses the path) and vertices of a closed path (entering there rotates
@@ -23,8 +26,10 @@ handles the rest. Coordinates are bed-frame mm.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import replace
+from operator import attrgetter
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -80,8 +85,9 @@ def order_layer(
     if not paths.paths:
         return plan
     sequence = np.asarray(color_sequence, dtype=np.int64).reshape(-1)
-    colors = np.fromiter((p.color for p in paths.paths), dtype=np.int64, count=len(paths.paths))
-    walls = np.fromiter((p.role in WALL_ROLES for p in paths.paths), dtype=bool, count=len(paths.paths))
+    colors = np.fromiter(map(attrgetter("color"), paths.paths), dtype=np.int64, count=len(paths.paths))
+    roles = map(attrgetter("role"), paths.paths)
+    walls = np.fromiter(map(WALL_ROLES.__contains__, roles), dtype=bool, count=len(paths.paths))
     stray = np.setdiff1d(colors, np.append(sequence, SKIRT_COLOR))
     if stray.size:
         raise ValueError(f"layer {paths.index}: path colors {stray.tolist()} are not in the color sequence")
@@ -94,6 +100,7 @@ def order_layer(
     keys = group_key[order]
     bounds = np.flatnonzero(np.diff(keys)) + 1
     position = np.asarray(start_xy, dtype=np.float64).reshape(2)
+    ends = _Ends(paths.paths)
     steps: list[Step] = []
     current = None
     for members in np.split(order, bounds):
@@ -101,46 +108,87 @@ def order_layer(
         if color != SKIRT_COLOR and color != current:
             steps.append(SetState(color))
             current = color
-        toured, position = _tour_units([paths.paths[i] for i in members], position)
+        toured, position = _tour_units(paths.paths, members, ends, position)
         steps.extend(toured)
     plan.steps = steps
     return plan
 
 
-def _tour_units(paths: Sequence[Path], position: np.ndarray) -> tuple[list[Path], np.ndarray]:
-    """Print the units of grouped paths (nearest unit first, each in its list order),
-    then tour the ungrouped paths greedily. Returns the oriented paths and the final XY."""
-    units: dict[int, list[Path]] = {}
-    loose: list[Path] = []
-    for path in paths:
-        (units.setdefault(path.group, []) if path.group >= 0 else loose).append(path)
+class _Ends:
+    """The first and last points of a layer's paths, gathered once per layer.
+
+    Attributes:
+        closed, group: each path's ``closed`` and ``group`` (Python lists).
+        sx, sy, ex, ey: first and last point coordinates (Python lists of floats, mm).
+    """
+
+    def __init__(self, paths: Sequence[Path]) -> None:
+        n = len(paths)
+        arrays = list(map(attrgetter("points"), paths))
+        offsets = np.zeros(n + 1, dtype=np.int64)
+        np.cumsum(np.fromiter(map(len, arrays), dtype=np.int64, count=n), out=offsets[1:])
+        points = np.concatenate(arrays)
+        self.closed = list(map(attrgetter("closed"), paths))
+        self.group = list(map(attrgetter("group"), paths))
+        self.sx, self.sy = points[offsets[:-1]].T.tolist()
+        self.ex, self.ey = points[offsets[1:] - 1].T.tolist()
+
+
+def _tour_units(
+    paths: Sequence[Path], members: np.ndarray, ends: _Ends, position: np.ndarray
+) -> tuple[list[Path], np.ndarray]:
+    """Print the units of grouped paths among ``paths[members]`` (nearest unit first, each
+    in its list order), then tour the ungrouped ones greedily. Returns the oriented paths
+    and the final XY."""
+    units: dict[int, list[int]] = {}
+    loose: list[int] = []
+    group = ends.group
+    for i in members.tolist():
+        (units.setdefault(group[i], []) if group[i] >= 0 else loose).append(i)
     out: list[Path] = []
+    x, y = float(position[0]), float(position[1])
     pending = list(units.values())
     while pending:
-        gaps = [_entry_distance(unit[0], position) for unit in pending]
-        for path in pending.pop(int(np.argmin(gaps))):
-            path = _oriented(path, position)
-            out.append(path)
-            position = path.end
-    toured, position = travel_tour(loose, position)
+        gaps = [_entry_distance(paths, ends, unit[0], x, y) for unit in pending]
+        x, y = _walk_unit(paths, pending.pop(int(np.argmin(gaps))), ends, x, y, out)
+    position = np.array([x, y])
+    if not loose:
+        return out, position
+    toured, position = travel_tour([paths[i] for i in loose], position)
     return out + toured, position
 
 
-def _entry_distance(path: Path, xy: np.ndarray) -> float:
-    """Distance (mm) from ``xy`` to the nearest entry of ``path`` (any vertex if closed, an end if open)."""
-    points = path.points if path.closed else path.points[[0, -1]]
-    return float(np.min(np.hypot(*(points - xy).T)))
+def _entry_distance(paths: Sequence[Path], ends: _Ends, i: int, x: float, y: float) -> float:
+    """Distance (mm) from ``(x, y)`` to the nearest entry of path ``i`` (any vertex if
+    closed, an end if open)."""
+    if ends.closed[i]:
+        d = paths[i].points - (x, y)
+        return float(np.sqrt(np.min(np.einsum("ij,ij->i", d, d))))
+    return min(math.hypot(ends.sx[i] - x, ends.sy[i] - y), math.hypot(ends.ex[i] - x, ends.ey[i] - y))
 
 
-def _oriented(path: Path, xy: np.ndarray) -> Path:
-    """``path`` rotated (closed) or reversed (open) to start at its entry nearest ``xy``."""
-    if path.closed:
-        d = path.points - xy
-        vertex = int(np.argmin(np.einsum("ij,ij->i", d, d)))
-        return replace(path, points=np.roll(path.points, -vertex, axis=0)) if vertex else path
-    if np.hypot(*(path.points[-1] - xy)) < np.hypot(*(path.points[0] - xy)):
-        return replace(path, points=path.points[::-1])
-    return path
+def _walk_unit(
+    paths: Sequence[Path], unit: list[int], ends: _Ends, x: float, y: float, out: list[Path]
+) -> tuple[float, float]:
+    """Append the paths ``unit`` to ``out`` in order, each rotated (closed) or reversed
+    (open) to start at its entry nearest the nozzle; returns the final nozzle XY (mm)."""
+    sx, sy, ex, ey, closed = ends.sx, ends.sy, ends.ex, ends.ey, ends.closed
+    for i in unit:
+        path = paths[i]
+        if closed[i]:
+            points = path.points
+            d = points - (x, y)
+            vertex = int(np.argmin(np.einsum("ij,ij->i", d, d)))
+            if vertex:
+                path = replace(path, points=np.concatenate((points[vertex:], points[:vertex])))
+            x, y = float(points[vertex, 0]), float(points[vertex, 1])
+        elif (ex[i] - x) ** 2 + (ey[i] - y) ** 2 < (sx[i] - x) ** 2 + (sy[i] - y) ** 2:
+            path = replace(path, points=path.points[::-1])
+            x, y = sx[i], sy[i]
+        else:
+            x, y = ex[i], ey[i]
+        out.append(path)
+    return x, y
 
 
 def travel_distance(paths: Sequence[Path], start_xy: np.ndarray) -> float:
