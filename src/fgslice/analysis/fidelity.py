@@ -24,7 +24,7 @@ import colour
 import numpy as np
 
 from fgslice.analysis.simulate import SimulationResult, mixing_deposit
-from fgslice.colors import materials_rgba, mix_linear
+from fgslice.colors import materials_rgba, srgb_to_linear
 from fgslice.design.base import Material
 from fgslice.errors import OutputError, SettingsError
 
@@ -86,8 +86,10 @@ def palette_bin_size(palette_size: int, n_materials: int) -> float:
 
 def mixture_lab(fractions: np.ndarray, materials: Sequence[Material]) -> np.ndarray:
     """CIELAB (D65) of compositions ``(..., k)`` mixed linearly in linear-sRGB, ``(..., 3)``."""
-    linear = mix_linear(fractions, materials_rgba(materials))
-    return colour.XYZ_to_Lab(colour.RGB_to_XYZ(linear, colour.RGB_COLOURSPACES["sRGB"], apply_cctf_decoding=False), _D65)
+    linear = srgb_to_linear(materials_rgba(materials)[:, :3])
+    # linear-sRGB -> XYZ is a matrix, so mixing the materials' XYZ is fgslice.colors.mix_linear
+    xyz_materials = colour.RGB_to_XYZ(linear, colour.RGB_COLOURSPACES["sRGB"], apply_cctf_decoding=False)
+    return colour.XYZ_to_Lab(np.asarray(fractions, dtype=float) @ xyz_materials, _D65)
 
 
 def delta_e_2000(lab_1: np.ndarray, lab_2: np.ndarray) -> np.ndarray:
