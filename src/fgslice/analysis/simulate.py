@@ -461,13 +461,10 @@ def _state_compositions(program, settings, centers: np.ndarray, n_materials: int
         if settings.dialect == "temperature" and state.temperature is not None:
             out[i] = fraction_from_temperature(np.array(state.temperature), settings.temperature_a, settings.temperature_b)[: n_materials]
             continue
-        if settings.dialect.startswith("marlin-mixing") and state.mix is not None:
-            mix = np.zeros(n_materials)
-            given = np.clip(np.asarray(state.mix[:n_materials], dtype=float), 0.0, None)
-            mix[: len(given)] = given
-            if mix.sum() > 0:
-                out[i] = mix / mix.sum()
-                continue
+        mix = state.mix_fractions(n_materials) if settings.dialect.startswith("marlin-mixing") else None
+        if mix is not None:
+            out[i] = mix
+            continue
         if settings.dialect == "toolchanger" and 0 <= state.tool < size:
             out[i] = centers[state.tool]
             continue

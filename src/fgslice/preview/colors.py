@@ -198,10 +198,9 @@ def state_colors(printout: Printout) -> StateColors:
         fractions = np.zeros((n, k))
         has = np.zeros(n, dtype=bool)
         for i, s in enumerate(states):
-            if s.mix is not None:
-                fractions[i, : min(k, len(s.mix))] = np.clip(s.mix[:k], 0.0, None)
-                has[i] = fractions[i].sum() > 0
-        fractions[has] /= fractions[has].sum(axis=1, keepdims=True)
+            mix = s.mix_fractions(k)
+            if mix is not None:
+                fractions[i], has[i] = mix, True
         rgba = np.tile(UNKNOWN_RGBA, (n, 1))
         rgba[has] = mix_rgba(fractions[has], materials_rgba(materials))
         _, first, key = np.unique(np.round(fractions, 4), axis=0, return_index=True, return_inverse=True)

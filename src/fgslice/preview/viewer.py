@@ -128,12 +128,9 @@ def _composition(state: MachineState, centers: np.ndarray | None, k: int) -> np.
     """The composition ``(k,)`` a state prints, or None if the file does not say."""
     if centers is not None and state.color is not None and 0 <= state.color < len(centers):
         return centers[state.color]
-    if state.mix is not None:
-        mix = np.zeros(k)
-        given = np.clip(np.asarray(state.mix[:k], dtype=float), 0.0, None)
-        mix[: len(given)] = given
-        if mix.sum() > 0:
-            return mix / mix.sum()
+    mix = state.mix_fractions(k)
+    if mix is not None:
+        return mix
     if 0 <= state.tool < k:
         return np.eye(k)[state.tool]
     return None
