@@ -100,6 +100,43 @@ def island_of(outline, coords: np.ndarray, ring_index: np.ndarray) -> np.ndarray
     return out
 
 
+SHARPEST_EXACT_CORNER = 45.0
+"""Corners (degrees, convex or reflex) at least this open are offset as exact mitres
+(their mitre stays within :data:`MITRE_LIMIT`, which allows down to about 39 degrees)."""
+
+
+def _mitres_exact(outline) -> bool:
+    """True when no corner of ``outline`` is sharper than :data:`SHARPEST_EXACT_CORNER`,
+    so that every offset of it keeps plain mitre corners (no bevels)."""
+    coords, ring, _ = ring_groups(outline)
+    if len(coords) == 0:
+        return True
+    first = np.flatnonzero(np.r_[True, ring[1:] != ring[:-1]])
+    last = np.r_[first[1:], len(coords)] - 1
+    nxt, prv = np.arange(1, len(coords) + 1), np.arange(-1, len(coords) - 1)
+    nxt[last], prv[first] = first, last
+    u, v = coords[prv] - coords, coords[nxt] - coords
+    cos = np.sum(u * v, axis=1) / np.maximum(np.hypot(*u.T) * np.hypot(*v.T), 1e-300)
+    return bool(np.all(cos <= np.cos(np.deg2rad(SHARPEST_EXACT_CORNER))))
+
+
+def _same_combinatorics(a, b) -> np.ndarray:
+    """Per pair, whether two inward offsets of one outline have the same parts, holes and
+    vertex count: no edge vanished and no part split or vanished between their distances."""
+    return (
+        (shapely.get_num_geometries(a) == shapely.get_num_geometries(b))
+        & (_holes(a) == _holes(b))
+        & (shapely.get_num_coordinates(a) == shapely.get_num_coordinates(b))
+        & ~shapely.is_empty(b)
+    )
+
+
+def _holes(geoms) -> np.ndarray:
+    """Number of holes of each polygonal geometry of an array."""
+    parts, src = shapely.get_parts(geoms, return_index=True)
+    return np.bincount(src, shapely.get_num_interior_rings(parts), minlength=len(geoms))
+
+
 @dataclass(frozen=True)
 class Walls:
     """Result of :func:`make_walls`.
@@ -121,9 +158,12 @@ def make_walls(outline, count: int, width: float, height: float, *, outer_first:
 
     Loop ``k`` is the boundary of the outline eroded by ``w / 2 + k s`` (``s`` from
     :func:`bead_spacing`), opened by ``s / 2`` so that no loop is printed around a
-    sliver narrower than the bead spacing (its two sides would overlap); the opening is
-    computed as erosion by ``w / 2 + k s + s / 2`` then dilation by ``s / 2``, and the
-    last erosion is the inner area. Loop 0 of
+    sliver narrower than the bead spacing (its two sides would overlap). All erosions
+    come from one vectorized offset (loop centers, the inner area and one more level);
+    where two consecutive levels have the same combinatorics and the outline has no
+    corner sharper than :data:`SHARPEST_EXACT_CORNER`, nothing thinner than a spacing
+    exists in between and the opening equals the erosion; elsewhere the opening is
+    computed (erosion by ``w / 2 + k s + s / 2``, dilation by ``s / 2``). Loop 0 of
     each island and of each hole has role EXTERNAL_PERIMETER, the others PERIMETER.
     Every loop's ``group`` is the index of the outline island it lies in, so that
     planning prints one island's loops together in this order.
@@ -140,9 +180,12 @@ def make_walls(outline, count: int, width: float, height: float, *, outer_first:
     if count == 0 or outline.is_empty:
         return Walls([], offset(outline, -width / 2))
     dist = width / 2 + s * np.arange(count)
-    eroded = offset(outline, -(dist + s / 2))
-    centers = offset(eroded, s / 2)
-    inner = eroded[-1]
+    levels = offset(outline, -np.r_[dist, dist[-1] + s / 2, dist[-1] + s])
+    centers, inner = levels[:count], levels[count]
+    unchanged = _same_combinatorics(levels[:count], np.r_[levels[1:count], levels[count + 1]])
+    redo = np.flatnonzero(~unchanged if _mitres_exact(outline) else np.ones(count, dtype=bool))
+    if len(redo):
+        centers[redo] = offset(offset(outline, -(dist[redo] + s / 2)), s / 2)
     coords, ring_idx, loop = ring_groups(centers)
     roles = np.where(loop == 0, Role.EXTERNAL_PERIMETER, Role.PERIMETER)
     paths = split_rings(coords, ring_idx, roles, color, width, height, island_of(outline, coords, ring_idx))
