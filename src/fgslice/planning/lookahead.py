@@ -30,6 +30,7 @@ import math
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
+from operator import attrgetter
 
 import numpy as np
 
@@ -110,13 +111,19 @@ def path_lengths(paths: Sequence[Path]) -> np.ndarray:
     """Printed length of each path (closing segment included), mm, in one numpy pass."""
     if not paths:
         return np.zeros(0)
-    sizes = np.fromiter((len(p.points) for p in paths), dtype=np.int64, count=len(paths))
-    points = np.concatenate([p.points for p in paths])
+    arrays, closed = zip(*map(attrgetter("points", "closed"), paths))
+    return polyline_lengths(arrays, np.array(closed, dtype=bool))
+
+
+def polyline_lengths(arrays: Sequence[np.ndarray], closed: np.ndarray) -> np.ndarray:
+    """Length (mm) of each ``(N_i, 2)`` polyline of ``arrays`` (N_i >= 1), with the
+    segment from its last point back to its first where ``closed`` is True."""
+    sizes = np.fromiter(map(len, arrays), dtype=np.int64, count=len(arrays))
+    points = np.concatenate(arrays)
     first = np.concatenate([[0], np.cumsum(sizes)[:-1]])
     last = first + sizes - 1
     seg = np.hypot(*np.diff(points, axis=0, append=points[-1:]).T)
     seg[last] = 0.0
-    closed = np.fromiter((p.closed for p in paths), dtype=bool, count=len(paths))
     closing = np.where(closed, np.hypot(*(points[first] - points[last]).T), 0.0)
     return np.add.reduceat(seg, first) + closing
 

@@ -24,12 +24,14 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
+from functools import cached_property
+from operator import attrgetter
 
 import numpy as np
 import shapely
 
 from fgslice.errors import SettingsError, SliceError
-from fgslice.planning.lookahead import path_lengths, split_path
+from fgslice.planning.lookahead import polyline_lengths
 from fgslice.planning.plan import LayerPlan, SetState, Step
 from fgslice.settings import Settings
 from fgslice.toolpaths.paths import Path, Role, bead_area
@@ -133,18 +135,33 @@ class PurgeTower:
         """The tower's rectangle in the bed frame."""
         return shapely.box(self.x0, self.y0, self.x1, self.y1)
 
-    def purge_path(self, slot: int, length: float, color: int, height: float) -> Path:
-        """Back-and-forth lines of ``length`` mm over the rows of change ``slot`` on a layer."""
-        w = self.line_width
-        first = slot * self.rows_per_change
-        y = self.y0 + w + w * np.arange(first, first + self.rows_per_change)
+    @cached_property
+    def _slots(self) -> tuple[np.ndarray, np.ndarray]:
+        """The back-and-forth line of every change slot, computed once per tower: points
+        ``(changes_per_layer, 2 * rows_per_change, 2)`` mm and the arc length at each
+        point, same shape without the last axis, mm."""
+        w, per = self.line_width, self.rows_per_change
+        y = (self.y0 + w + w * np.arange(self.changes_per_layer * per)).reshape(-1, per)
         xa, xb = self.x0 + w, self.x1 - w
-        x = np.tile([xa, xb, xb, xa], (self.rows_per_change + 1) // 2)[: 2 * self.rows_per_change]
-        path = Path(np.c_[x, np.repeat(y, 2)], Role.WIPE_TOWER, color, w, height)
-        full = path.length
-        if length > full + 1e-6:
-            raise ValueError(f"purge of {length:.1f} mm exceeds the tower's {full:.1f} mm per change")
-        return path if length >= full - 1e-9 else split_path(path, [length])[0]
+        x = np.tile([xa, xb, xb, xa], (per + 1) // 2)[: 2 * per]
+        points = np.stack(np.broadcast_arrays(x, np.repeat(y, 2, axis=1)), axis=-1)
+        seg = np.hypot(*np.moveaxis(np.diff(points, axis=1), -1, 0))
+        arc = np.concatenate([np.zeros((len(points), 1)), np.cumsum(seg, axis=1)], axis=1)
+        return points, arc
+
+    def purge_path(self, slot: int, length: float, color: int, height: float) -> Path:
+        """Back-and-forth lines of ``length`` mm over the rows of change ``slot`` on a layer
+        (``0 <= slot < changes_per_layer``): the slot's line cut at that arc length."""
+        points, arc = self._slots
+        points, arc = points[slot], arc[slot]
+        if length > arc[-1] + 1e-6:
+            raise ValueError(f"purge of {length:.1f} mm exceeds the tower's {arc[-1]:.1f} mm per change")
+        if length < arc[-1] - 1e-9:
+            i = min(max(int(np.searchsorted(arc, length, side="right")) - 1, 0), len(arc) - 2)
+            t = (length - arc[i]) / (arc[i + 1] - arc[i])
+            cut = [points[i] + t * (points[i + 1] - points[i])] if t > 0 else []
+            points = np.concatenate([points[: i + 1], cut]) if cut else points[: i + 1]
+        return Path(points, Role.WIPE_TOWER, color, self.line_width, height)
 
     def base_paths(self, used_slots: int, color: int, height: float) -> list[Path]:
         """The tower's perimeter and a sparse fill over the rows the purges left empty."""
@@ -242,58 +259,50 @@ def insert_purges(
     for plan in plans:
         if plan.index >= tower.n_layers:
             raise ValueError(f"layer {plan.index} is above the {tower.n_layers} layers the tower was planned for")
-        changes = _count_changes(plan, state)
+        marks = [i for i, step in enumerate(plan.steps) if isinstance(step, SetState)]
+        changes = _count_changes([plan.steps[i].color for i in marks], state)
         if changes > tower.changes_per_layer:
             raise ValueError(
                 f"layer {plan.index} has {changes} state changes; the tower was sized for {tower.changes_per_layer}"
             )
         base = tower.base_paths(changes, CURRENT_STATE if state is None else state, plan.height)
-        steps: list[Step] = []
-        placed = False
-        slot = 0
-        for step in plan.steps:
-            if not isinstance(step, SetState):
-                steps.append(step)
-                continue
-            if not placed:
+        runs = [plan.steps[a + 1 : b] for a, b in zip([-1] + marks, marks + [len(plan.steps)])]
+        steps: list[Step] = list(runs[0]) if marks else [*runs[0], *base]
+        purges: list[Path] = []
+        for k, i in enumerate(marks):
+            change = plan.steps[i]
+            if k == 0:
                 steps.extend(base)
-                placed = True
-            steps.append(step)
-            if step.color == state:
-                continue
-            length = purge_length(settings.melt_volume_mm3, tower.line_width, plan.height)
-            if settings.purge_scale_by_change and state is not None:
-                length *= float(np.max(np.abs(centers[step.color] - centers[state])))
-            purge = tower.purge_path(slot, length, step.color, plan.height)
-            steps.append(purge)
-            stats.purge_mm3 += _volume([purge])
-            stats.changes += 1
-            slot += 1
-            state = step.color
-        if not placed:
-            steps.extend(base)
-        out = LayerPlan(index=plan.index, z=plan.z, height=plan.height, steps=steps)
-        stats.tower_base_mm3 += _volume(base)
-        stats.extruded_mm3 += _volume(out.paths)
-        yield out
+            steps.append(change)
+            if change.color != state:
+                length = purge_length(settings.melt_volume_mm3, tower.line_width, plan.height)
+                if settings.purge_scale_by_change and state is not None:
+                    length *= float(np.max(np.abs(centers[change.color] - centers[state])))
+                purges.append(tower.purge_path(len(purges), length, change.color, plan.height))
+                steps.append(purges[-1])
+                state = change.color
+            steps.extend(runs[k + 1])
+        purge_mm3, base_mm3 = _volume(purges), _volume(base)
+        stats.purge_mm3 += purge_mm3
+        stats.changes += len(purges)
+        stats.tower_base_mm3 += base_mm3
+        stats.extruded_mm3 += _volume([p for run in runs for p in run]) + purge_mm3 + base_mm3
+        yield LayerPlan(index=plan.index, z=plan.z, height=plan.height, steps=steps)
 
 
-def _count_changes(plan: LayerPlan, state: int | None) -> int:
-    """How many of the layer's SetStates change the state, starting from ``state``."""
-    changes = 0
-    for step in plan.steps:
-        if isinstance(step, SetState) and step.color != state:
-            changes += 1
-            state = step.color
-    return changes
+def _count_changes(colors: list[int], state: int | None) -> int:
+    """How many of the layer's SetStates (their ``colors`` in order) change the state,
+    starting from ``state``."""
+    return sum(a != b for a, b in zip([state] + colors[:-1], colors))
 
 
 def _volume(paths: list[Path]) -> float:
     """Extruded volume of ``paths`` by the capsule model, mm^3."""
     if not paths:
         return 0.0
-    areas = np.array([bead_area(p.width, p.height) for p in paths])
-    return float(np.dot(path_lengths(paths), areas))
+    arrays, closed, widths, heights = zip(*map(attrgetter("points", "closed", "width", "height"), paths))
+    lengths = polyline_lengths(arrays, np.array(closed, dtype=bool))
+    return float(np.dot(lengths, bead_area(np.array(widths), np.array(heights))))
 
 
 def _tower_size(length: float, changes: int, w: float, aspect: float) -> tuple[float, float, int, int]:
