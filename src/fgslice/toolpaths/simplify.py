@@ -6,8 +6,6 @@ into account, then dropped again, so ``Path.points`` keeps not repeating it).
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 import shapely
 
@@ -22,14 +20,25 @@ def simplify_paths(paths: list[Path], tolerance: float) -> list[Path]:
     """
     if not paths or tolerance <= 0:
         return list(paths)
-    verts = [p.vertices for p in paths]
-    counts = np.array([len(v) for v in verts])
-    lines = shapely.linestrings(np.vstack(verts), indices=np.repeat(np.arange(len(paths)), counts))
+    points = np.concatenate([p.points for p in paths])
+    counts = np.array([len(p.points) for p in paths])
+    closed = np.array([p.closed for p in paths], dtype=np.int64)
+    # every path's vertices, closed ones with their first point repeated at the end
+    sizes = counts + closed
+    ends = np.cumsum(sizes)
+    verts = np.empty((ends[-1], 2))
+    keep = np.ones(ends[-1], dtype=bool)
+    keep[(ends - 1)[closed == 1]] = False
+    verts[keep] = points
+    verts[(ends - 1)[closed == 1]] = points[(np.cumsum(counts) - counts)[closed == 1]]
+    lines = shapely.linestrings(verts, indices=np.repeat(np.arange(len(paths)), sizes))
     simple = shapely.simplify(lines, tolerance, preserve_topology=False)
     coords, index = shapely.get_coordinates(simple, return_index=True)
     bounds = np.searchsorted(index, np.arange(len(paths) + 1))
     out = []
     for p, a, b in zip(paths, bounds[:-1].tolist(), bounds[1:].tolist()):
         pts = coords[a : b - 1] if p.closed else coords[a:b]
-        out.append(replace(p, points=pts) if len(pts) >= (3 if p.closed else 2) else p)
+        if len(pts) >= (3 if p.closed else 2):
+            p = Path(pts, p.role, p.color, p.width, p.height, p.closed, p.group)
+        out.append(p)
     return out
