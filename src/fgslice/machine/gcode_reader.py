@@ -157,7 +157,7 @@ def _load_bytes(path_or_text: str | os.PathLike | bytes) -> tuple[bytes, str | N
     if b"\x00" in data[:65536]:
         raise GcodeError("not G-code text: it holds binary data", file=name,
                          hint="binary G-code (.bgcode) is not supported; export plain G-code")
-    if not data.strip():
+    if data.isspace() or not data:
         raise GcodeError("the G-code is empty", file=name)
     return data, name
 
@@ -176,6 +176,8 @@ _AXIS_TABLE = _table(_AXES + _AXES.lower())
 _END_TABLE = _table(" \t\r\n;\x00")
 _MOVE_END_TABLE = _table(" \t\r\n;")
 _COMMENT_KEYS = _table("TWLZS")
+_AXIS_COLUMN = np.zeros(256, dtype=np.int64)
+_AXIS_COLUMN[np.frombuffer(_AXES.encode(), dtype=np.uint8)] = np.arange(len(_AXES))
 _POW10_INT = 10 ** np.arange(17, dtype=np.int64)
 _POW10 = 10.0 ** np.arange(17)
 _LIVE_BYTES = np.array([[(1 << 8 * min(k, 8)) - 1, (1 << 8 * max(k - 8, 0)) - 1] for k in range(17)], dtype=np.uint64)
@@ -417,16 +419,19 @@ def _parse_numbers(padded: np.ndarray, begin: np.ndarray) -> tuple[np.ndarray, n
     return values, valid
 
 
-def _tokens(padded: np.ndarray, n_bytes: int, starts: np.ndarray, first: np.ndarray, is_move: np.ndarray,
+def _tokens(padded: np.ndarray, n_bytes: int, first: np.ndarray, is_move: np.ndarray,
             comment_start: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Axis words of move lines: (line index, upper-case letter, value, valid) per word.
 
-    A word is an axis letter right after a blank, before the line's comment.
+    A word is an axis letter right after a blank, before the line's comment; its line is
+    the count of newlines before it, from one pass over blanks and newlines together.
     """
     buf = padded[:n_bytes]
-    blanks = np.flatnonzero((buf == 32) | (buf == 9))
-    pos = blanks[_AXIS_TABLE[padded[blanks + 1]]] + 1
-    lid = np.searchsorted(starts, pos, side="right") - 1
+    separators = np.flatnonzero((buf == 32) | (buf == 9) | (buf == 10))
+    newline = buf[separators] == 10
+    line_of = np.cumsum(newline) - newline
+    word = _AXIS_TABLE[padded[separators + 1]] & ~newline
+    pos, lid = separators[word] + 1, line_of[word]
     keep = is_move[lid] & (pos < comment_start[lid]) & (pos > first[lid] + 1)
     pos, lid = pos[keep], lid[keep]
     values, valid = _parse_numbers(padded, pos + 1)
@@ -482,17 +487,14 @@ def read_gcode(path_or_text: str | os.PathLike | bytes) -> GcodeProgram:
     n_rows = len(move_lines)
     row_of_line = np.full(n_lines, -1, dtype=np.int64)
     row_of_line[move_lines] = np.arange(n_rows)
-    lid, letters, values, valid = _tokens(padded, len(buf), starts, first, is_move, comment_start)
+    lid, letters, values, valid = _tokens(padded, len(buf), first, is_move, comment_start)
     faults = list(events.faults)
     for i in np.flatnonzero(~valid).tolist():
         word = data[starts[lid[i]] : ends[lid[i]]].decode("utf-8", errors="replace").split(";")[0].strip()
         faults.append(Fault(int(lid[i]) + 1, f"{word}: {chr(letters[i])} value is not a finite number"))
-    axis = {}
-    for letter in _AXES:
-        column = np.full(n_rows, np.nan)
-        sel = valid & (letters == ord(letter))
-        column[row_of_line[lid[sel]]] = values[sel]
-        axis[letter] = column
+    table = np.full((n_rows, len(_AXES)), np.nan)
+    table[row_of_line[lid[valid]], _AXIS_COLUMN[letters[valid]]] = values[valid]
+    axis = {letter: table[:, k] for k, letter in enumerate(_AXES)}
 
     move_numbers = move_lines + 1
     end = np.empty((n_rows, 3))
@@ -551,10 +553,8 @@ def read_gcode(path_or_text: str | os.PathLike | bytes) -> GcodeProgram:
             file=name,
             hint="expected G0/G1 lines such as 'G1 X10 Y10 E0.5'",
         )
-    after = np.array(events.after, dtype=float).reshape(-1, 4)
-    at = np.searchsorted(np.array(events.lines, dtype=np.int64), move_numbers) - 1
-    initial = np.array([-1.0, -1.0, 0.0, np.nan])
-    per_move = np.where((at >= 0)[:, None], after[np.maximum(at, 0)] if len(after) else initial, initial)
+    after = np.array([(-1.0, -1.0, 0.0, np.nan), *events.after])
+    per_move = after[np.searchsorted(np.array(events.lines, dtype=np.int64), move_numbers)]
     return GcodeProgram(
         start=start[moved],
         end=end[moved],
