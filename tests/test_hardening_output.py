@@ -176,7 +176,8 @@ def _start_slow_slice(tmp_path, started):
     target = tmp_path / "tall.gcode"
     target.write_text(OLD)
     proc = subprocess.Popen([FGSLICE, "slice", design, "-o", target, "--jobs", "2", "--strategy", "2"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                            env={**os.environ, "PYTHONFAULTHANDLER": "1"})
     started.append(proc)
     deadline = time.monotonic() + 60
     while not leftovers(tmp_path):
@@ -190,7 +191,11 @@ def _start_slow_slice(tmp_path, started):
 def test_ctrl_c_exits_130_and_keeps_the_old_output(tmp_path, slow_slice):
     proc, target = slow_slice()
     os.killpg(proc.pid, signal.SIGINT)
-    out, err = proc.communicate(timeout=60)
+    try:
+        out, err = proc.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        proc.send_signal(signal.SIGABRT)
+        pytest.fail("the interrupt was lost; where the slice was:\n" + proc.communicate()[1][-6000:])
     assert proc.returncode == 130, err
     assert "interrupted: no output file was written or changed" in err and "Traceback" not in err
     assert target.read_text() == OLD and leftovers(tmp_path) == []
