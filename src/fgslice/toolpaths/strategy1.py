@@ -111,22 +111,19 @@ class _Dense:
 def _split(pid, segment, a, b, arc0, count) -> _Dense:
     """Split segments ``a -> b`` (starting at arc position ``arc0`` on path ``pid``) into
     ``count`` equal sub-segments each."""
-    length = np.hypot(*(b - a).T)
     src = np.repeat(np.arange(len(a)), count)
-    j = np.arange(len(src)) - np.repeat(np.cumsum(count) - count, count)
-    n = count[src]
-    t0, t1 = (j / n)[:, None], ((j + 1) / n)[:, None]
-    d = (b - a)[src]
-    sub = length[src] / n
-    p0, p1 = a[src] + d * t0, a[src] + d * t1
+    j = np.arange(len(src)) - (np.cumsum(count) - count)[src]
+    step = ((b - a) / count[:, None])[src]
+    sub = (np.hypot(*(b - a).T) / count)[src]
+    p0 = a[src] + step * j[:, None]
     return _Dense(
         pid=pid[src],
         segment=segment[src],
         p0=p0,
-        p1=p1,
+        p1=p0 + step,
         length=sub,
-        arc_mid=arc0[src] + length[src] * t0[:, 0] + sub / 2,
-        mid=(p0 + p1) / 2,
+        arc_mid=arc0[src] + sub * (j + 0.5),
+        mid=p0 + step / 2,
         uniform=np.zeros(len(src), dtype=bool),
     )
 
