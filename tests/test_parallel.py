@@ -12,6 +12,7 @@ from fgslice.pipeline import slice_to_gcode
 from fgslice.settings import load_settings
 
 distributed = pytest.importorskip("distributed")
+pytestmark = pytest.mark.slow  # a two-process Dask cluster takes seconds to start
 
 GRADED_DISC = """
 fgrade(["x/24 + 0.5", "0.5 - x/24"], ["blue", "yellow"]) {

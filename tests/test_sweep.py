@@ -63,6 +63,7 @@ def test_local_sweep_writes_every_combination(tmp_path, disc, monkeypatch):
     assert all(name in text for name in names)
 
 
+@pytest.mark.slow
 def test_dask_sweep_matches_local(tmp_path, disc, monkeypatch):
     distributed = pytest.importorskip("distributed")
     monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000000")
