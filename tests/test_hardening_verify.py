@@ -62,7 +62,7 @@ def sliced(tmp_path_factory):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("path", example_paths())
+@pytest.mark.parametrize("path", list(example_paths()))
 def test_verify_passes_every_example(path, tmp_path):
     overrides = NATURAL.get(path.stem, {"strategy": 2, "colors": 4})
     out = tmp_path / f"{path.stem}.gcode"
