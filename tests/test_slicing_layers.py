@@ -107,3 +107,14 @@ def test_off_bed_position_hints_centering():
     with pytest.raises(SliceError) as err:
         place_design(Box((-20, -20, 0), (20, 20, 5)), Settings(center=False, position_x=5, position_y=100))
     assert "--set center=true" in err.value.hint
+
+
+def test_bed_field_of_no_points_is_an_empty_table():
+    from fgslice.design import api
+    from fgslice.slicing.field import BedField
+    from fgslice.slicing.layers import Placement
+
+    design = api.design(api.fgrade(["x", "1-x"], ["blue", "yellow"], api.cube(2)))
+    field = BedField(design, Placement((0.0, 0.0, 0.0)))
+    assert field.fractions(np.zeros((0, 2)), 1.0).shape == (0, 2)
+    assert field.fractions(np.array([[0.25, 0.0]]), 0.0) == pytest.approx(np.array([[0.25, 0.75]]))

@@ -27,7 +27,7 @@ class BedField:
     def fractions(self, xy: np.ndarray, z: float) -> np.ndarray:
         """Normalized volume fractions ``(N, k)`` at bed points ``xy`` ``(N, 2)`` (mm), height ``z`` (mm)."""
         x, y, zz = self._design_xyz(xy, z)
-        return np.asarray(self.design.fractions(x, y, zz), dtype=float).reshape(len(x), -1)
+        return np.asarray(self.design.fractions(x, y, zz), dtype=float).reshape(len(x), len(self.design.materials))
 
     def fractions_grid(self, xs: np.ndarray, ys: np.ndarray, z: float) -> np.ndarray:
         """Fractions ``(len(ys), len(xs), k)`` on the grid of bed coordinates ``xs`` x ``ys`` (mm) at height ``z``.
