@@ -157,3 +157,17 @@ def test_preview_draws_a_layer_a_sheet_and_refuses_a_missing_layer(design, tmp_p
     assert result.exit_code == 2 and "does not exist" in result.output
     result = run("preview", design, "-o", tmp_path / "y.png")
     assert result.exit_code == 2 and "Traceback" not in result.output
+
+
+def test_sweep_writes_one_slice_per_combination_and_a_summary(design, tmp_path):
+    out = tmp_path / "sweep"
+    result = run("sweep", design, "-o", out, "--colors", "2,3", "--zipper", "0,10", "--strategy", "1", "--jobs", "1")
+    assert result.exit_code == 0, result.output
+    names = sorted(p.name for p in out.glob("*.gcode"))
+    assert names == ["box_c2_z0_s1.gcode", "box_c2_z10_s1.gcode", "box_c3_z0_s1.gcode", "box_c3_z10_s1.gcode"]
+    rows = (out / "summary.csv").read_text().splitlines()
+    assert len(rows) == 5
+    stats = json.loads((out / "box_c3_z10_s1.json").read_text())
+    assert stats["colors"] == 3
+    result = run("sweep", design, "-o", out, "--colors", "4,x")
+    assert result.exit_code == 2 and "comma-separated" in result.output

@@ -309,6 +309,41 @@ def preview_command(gcode, output, layer, z, design_path, materials, travel, she
     click.echo(f"{output}: layer {layer}")
 
 
+def _number_list(kind, text: str) -> list:
+    """``"4,8,12"`` -> ``[4, 8, 12]`` (``kind`` int or float), with a clear error."""
+    from fgslice.errors import SettingsError
+
+    try:
+        return [kind(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise SettingsError(f"expected comma-separated numbers, got '{text}'", hint="for example --colors 4,8,12,16") from None
+
+
+@main.command("sweep")
+@click.argument("design", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", "out_dir", required=True, type=click.Path(file_okay=False, path_type=Path), help="Folder for the G-code, statistics and summary.csv.")
+@click.option("--colors", "colors", required=True, help="Palette sizes, e.g. 4,8,12,16.")
+@click.option("--zipper", "zipper", default="0", show_default=True, help="Zipper widths beta (percent), e.g. 0,5.")
+@click.option("--strategy", "strategy", help="Strategies, e.g. 1,2 (default: the profile's).")
+@click.option("--profile", help="Built-in profile name or a TOML file.")
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="Override any setting for every combination.")
+@click.option("--materials", type=click.Path(dir_okay=False, path_type=Path), help="Material library JSON.")
+@click.option("--jobs", type=int, help="Worker processes per slice (default: all cores).")
+@click.option("--scheduler", help="Run each combination as a task on this Dask scheduler.")
+def sweep_command(design, out_dir, colors, zipper, strategy, profile, sets, materials, jobs, scheduler):
+    """Slice DESIGN for every combination of palette size, zipper width and strategy."""
+    from fgslice.settings import parse_overrides
+    from fgslice.sweep import format_summary, run_sweep
+
+    rows = run_sweep(
+        design, out_dir, colors=_number_list(int, colors), zipper=_number_list(float, zipper),
+        strategy=_number_list(int, strategy) if strategy else None, profile=profile,
+        overrides=parse_overrides(sets), materials=materials, jobs=jobs, scheduler=scheduler,
+    )
+    click.echo(format_summary(rows))
+    click.echo(f"{out_dir}: {len(rows)} slices and summary.csv")
+
+
 @main.command("view")
 @click.argument("gcode", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--port", type=int, help="Port on 127.0.0.1 (default: a free one).")
