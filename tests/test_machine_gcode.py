@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from fgslice.machine.dialects import make_dialect
-from fgslice.machine.gcode import GcodeWriter, format_duration, format_moves
+from fgslice.machine.gcode import GcodeWriter, fmt, format_duration, format_lines, format_moves
 from fgslice.machine.gcode_reader import read_gcode
 from fgslice.machine.thumbnails import thumbnail_block
 from fgslice.machine.verify import verify_gcode
@@ -193,6 +193,17 @@ def test_format_moves_matches_python_formatting():
         assert float(words[2][1:]) == float(f"{y[k]:.3f}")
         assert not words[1].endswith("0") or "." not in words[1]
     assert offsets[-1] == len(text)
+
+
+@pytest.mark.parametrize("decimals", [0, 1, 3, 5])
+def test_format_lines_writes_every_number_as_python_does(decimals):
+    rng = np.random.default_rng(decimals)
+    special = [0.0, -0.0, -1e-9, 1e-9, 0.5, -0.5, 1000.0, 999.9999999, 1000000.0, 123456789.0, -12345.6789,
+               100.1, 0.00001, 0.000049, 2.00000, 10.0, -7.25]
+    values = np.concatenate([special, rng.uniform(-2000, 2000, 300), 10.0 ** rng.uniform(-6, 8, 300)])
+    text, offsets = format_lines([("V", values, decimals)])
+    assert text.splitlines() == [f"V{fmt(v, decimals)}" for v in values]
+    assert offsets[-1] == len(text) and np.all(np.diff(offsets) > 1)
 
 
 def test_state_change_before_a_degenerate_path_is_kept():

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable
+from functools import cache
 from datetime import datetime, timezone
 from importlib import metadata
 from typing import TextIO
@@ -65,34 +66,55 @@ def fmt(value: float, decimals: int) -> str:
     return "0" if text in ("-0", "") else text
 
 
-def _number_rows(values: np.ndarray, decimals: int) -> list[np.ndarray]:
-    """ASCII bytes of ``values`` with ``decimals`` decimals, one uint8 array per column.
+@cache
+def _digit_tables(decimals: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Byte tables of number pieces, 0 where nothing is printed.
 
-    The columns are sign, integer digits (most significant first), point and decimals,
-    each of length ``len(values)``; bytes that are not printed (leading zeros, trailing
-    zeros of the fraction, the point of whole numbers, the sign of non-negative values)
-    are 0 and removed by the caller.
+    Returns ``full`` ``(1000, 3)``: the three digits of 0..999; ``lead`` ``(1000, 3)``:
+    the same without leading zeros (``0`` as "0", right-aligned); ``frac``
+    ``(10**decimals, decimals + 1)``: ``.`` and the decimals of 0..10**decimals - 1
+    without trailing zeros (nothing for 0).
     """
+    v = np.arange(1000)
+    digits = np.stack([v // 100, v // 10 % 10, v % 10], axis=1)
+    full = (digits + 48).astype(np.uint8)
+    lead = np.where(v[:, None] >= [100, 10, 1], full, 0).astype(np.uint8)
+    lead[0, 2] = 48
+    f = np.arange(10**decimals)
+    power = 10 ** np.arange(decimals - 1, -1, -1)
+    frac = np.zeros((f.size, decimals + 1), dtype=np.uint8)
+    frac[:, 1:] = np.where(f[:, None] % (10 * power) != 0, f[:, None] // power % 10 + 48, 0)
+    frac[:, 0] = np.where(f != 0, 46, 0)
+    return full, lead, frac
+
+
+def _number_block(values: np.ndarray, decimals: int) -> np.ndarray:
+    """ASCII bytes of ``values`` with at most ``decimals`` decimals, one row per value.
+
+    The ``(n, w)`` uint8 columns are sign, integer digits (most significant first), point
+    and decimals; bytes that are not printed (leading zeros, trailing zeros of the
+    fraction, the point of whole numbers, the sign of non-negative values) are 0 and
+    removed by the caller. Digits come from lookup tables, three integer digits at a time.
+    """
+    full, lead, frac = _digit_tables(decimals)
     q = np.rint(np.abs(values) * 10.0**decimals).astype(np.int64)
-    total = max(len(str(int(q.max()))) if q.size else 1, decimals + 1)
-    if total - decimals > INT_DIGITS:
+    whole, part = np.divmod(q, 10**decimals)
+    top = int(whole.max()) if q.size else 0
+    if top >= 10**INT_DIGITS:
         raise ValueError(f"cannot write a G-code number of more than {INT_DIGITS} integer digits")
-    digits = np.empty((total, len(q)), dtype=np.uint8)
-    rest = q
-    for k in range(total):
-        rest, digit = np.divmod(rest, 10)
-        digits[k] = digit
-    nonzero = digits != 0
-    keep_dec = np.logical_or.accumulate(nonzero[:decimals], axis=0)
-    keep_int = np.logical_or.accumulate(nonzero[decimals:][::-1], axis=0)[::-1]
-    keep_int[0] = True
-    chars = digits + np.uint8(48)
-    rows = [np.where((values < 0) & (q != 0), np.uint8(45), np.uint8(0))]
-    rows += [np.where(keep_int[k], chars[decimals + k], np.uint8(0)) for k in range(total - decimals - 1, -1, -1)]
-    if decimals:
-        rows.append(np.where(keep_dec[-1], np.uint8(46), np.uint8(0)))
-        rows += [np.where(keep_dec[k], chars[k], np.uint8(0)) for k in range(decimals - 1, -1, -1)]
-    return rows
+    groups = [whole % 1000]
+    while 1000 ** len(groups) <= top:
+        groups.append(whole // 1000 ** len(groups) % 1000)
+    sign = np.where((values < 0) & (q != 0), np.uint8(45), np.uint8(0))[:, None]
+    blocks = [sign]
+    for k in range(len(groups) - 1, -1, -1):
+        shown = np.take(lead, groups[k], axis=0)
+        if k:
+            shown[groups[k] == 0] = 0  # a leading group of zeros
+        higher = whole >= 1000 ** (k + 1)
+        blocks.append(np.where(higher[:, None], np.take(full, groups[k], axis=0), shown))
+    blocks.append(np.take(frac, part, axis=0))
+    return np.concatenate(blocks, axis=1)
 
 
 def format_lines(fields: list[tuple[str, np.ndarray, int]], suffix: str = "\n") -> tuple[str, np.ndarray]:
@@ -110,18 +132,19 @@ def format_lines(fields: list[tuple[str, np.ndarray, int]], suffix: str = "\n") 
         if not np.isfinite(values).all():
             raise ValueError("a toolpath has a non-finite coordinate")
 
-    rows: list[np.ndarray | int] = []
+    blocks: list[np.ndarray] = []
     for text, values, decimals in fields:
-        rows += list(text.encode()) + _number_rows(values, decimals)
-    rows += list(suffix.encode())
-    matrix = np.empty((len(rows), n), dtype=np.uint8)
-    for k, row in enumerate(rows):
-        matrix[k] = row
-    matrix = matrix.T
+        blocks += [_literal(text, n), _number_block(values, decimals)]
+    matrix = np.concatenate(blocks + [_literal(suffix, n)], axis=1)
     keep = matrix != 0
     offsets = np.zeros(n + 1, dtype=np.int64)
     np.cumsum(keep.sum(axis=1), out=offsets[1:])
     return matrix[keep].tobytes().decode("ascii"), offsets
+
+
+def _literal(text: str, n: int) -> np.ndarray:
+    """The bytes of ``text`` repeated on ``n`` rows, ``(n, len(text))`` uint8."""
+    return np.broadcast_to(np.frombuffer(text.encode("ascii"), dtype=np.uint8), (n, len(text)))
 
 
 def format_moves(x: np.ndarray, y: np.ndarray, e: np.ndarray) -> tuple[str, np.ndarray]:
