@@ -184,33 +184,29 @@ def _sample(verts, pid, arc, field, palette, z: float, w: float, beta: float):
     return dense, color, neighbor
 
 
-def _point_on(dense: _Dense, k: np.ndarray, nxt: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """Point at distance ``u`` along the path from the midpoint of sub-segment ``k``
-    towards the midpoint of the next one ``nxt``."""
-    half_k, half_n = dense.length[k] / 2, dense.length[nxt] / 2
-    mk, mn = dense.mid[k], dense.mid[nxt]
-    first = u <= half_k
-    ta = np.where(first, u / half_k, 1.0)[:, None]
-    tb = np.where(first, 0.0, (u - half_k) / half_n)[:, None]
-    return np.where(first[:, None], mk + (dense.p1[k] - mk) * ta, dense.p0[nxt] + (mn - dense.p0[nxt]) * tb)
-
-
 def _refine(dense, k, nxt, predicate) -> np.ndarray:
     """Distance past the midpoint of ``k`` where ``predicate(points)`` turns False.
 
     The search runs between the two midpoints, or from the shared end when a side is
     uniform (its color is known all along it), so it spans at most ``w / 2``. Each of
     :data:`SEARCH_ROUNDS` rounds evaluates :data:`SEARCH_SPLITS` - 1 inner points of
-    every interval at once and keeps the part where the predicate turns False.
+    every interval at once and keeps the part where the predicate turns False. The
+    path between the midpoints runs from the midpoint of ``k`` to its end, then from
+    the start of ``nxt`` to its midpoint.
     """
-    half_k = dense.length[k] / 2
+    half_k, half_n = dense.length[k] / 2, dense.length[nxt] / 2
+    mid_k, end_k, start_n = dense.mid[k][:, None], dense.p1[k][:, None], dense.p0[nxt][:, None]
+    along_k, along_n = end_k - mid_k, dense.mid[nxt][:, None] - start_n
     lo = np.where(dense.uniform[k], half_k, 0.0)
-    hi = half_k + np.where(dense.uniform[nxt], 0.0, dense.length[nxt] / 2)
+    hi = half_k + np.where(dense.uniform[nxt], 0.0, half_n)
     j = np.arange(1, SEARCH_SPLITS)
     for _ in range(SEARCH_ROUNDS):
         step = (hi - lo) / SEARCH_SPLITS
         u = lo[:, None] + step[:, None] * j
-        same = predicate(_point_on(dense, np.repeat(k, len(j)), np.repeat(nxt, len(j)), u.ravel()), len(j))
+        first = u <= half_k[:, None]
+        on_k = mid_k + along_k * np.where(first, u / half_k[:, None], 1.0)[..., None]
+        on_n = start_n + along_n * np.where(first, 0.0, (u - half_k[:, None]) / half_n[:, None])[..., None]
+        same = predicate(np.where(first[..., None], on_k, on_n).reshape(-1, 2), len(j))
         passed = np.cumprod(same.reshape(-1, len(j)), axis=1).sum(axis=1)
         lo, hi = lo + step * passed, lo + step * (passed + 1)
     return (lo + hi) / 2
