@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import io
 import os
@@ -163,9 +164,9 @@ def slow_slice(tmp_path):
 
     yield lambda: _start_slow_slice(tmp_path, started)
     for proc in started:
-        if proc.poll() is None:
+        with contextlib.suppress(ProcessLookupError):
             os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
+        proc.wait()
 
 
 def _start_slow_slice(tmp_path, started):
@@ -226,6 +227,30 @@ def test_killing_a_worker_of_a_real_slice_is_reported(tmp_path, slow_slice):
     assert proc.returncode == 2, err
     assert "error: a worker process died while slicing" in err and "--jobs 1" in err and "Traceback" not in err
     assert target.read_text() == OLD and leftovers(tmp_path) == []
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="workers end with their parent on Linux")
+def test_workers_end_when_the_slicer_is_killed(tmp_path, slow_slice):
+    proc, target = slow_slice()
+    deadline = time.monotonic() + 30
+    while not (workers := _children(proc.pid)):
+        assert proc.poll() is None and time.monotonic() < deadline, "no worker processes found"
+        time.sleep(0.05)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.communicate(timeout=30)
+    deadline = time.monotonic() + 10
+    while alive := [pid for pid in workers if Path(f"/proc/{pid}").exists() and _state(pid) != "Z"]:
+        assert time.monotonic() < deadline, f"orphaned workers still running: {alive}"
+        time.sleep(0.05)
+    assert target.read_text() == OLD
+
+
+def _state(pid: int) -> str:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return "gone"
 
 
 def test_a_completed_slice_replaces_the_old_output(tmp_path):

@@ -8,9 +8,11 @@ once (fork inheritance locally, a scattered object on Dask), then only layer ind
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import multiprocessing
 import os
 import signal
+import sys
 import threading
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
@@ -21,13 +23,27 @@ from typing import Any
 from fgslice.errors import SliceError
 
 _STATE: Any = None
+_PR_SET_PDEATHSIG = 1
 
 
-def _init_worker(state: Any) -> None:
-    """Keep the job state; leave Ctrl-C to the parent, which stops the pool and cleans up."""
+def _init_worker(state: Any, parent: int) -> None:
+    """Keep the job state; leave Ctrl-C to the parent, which stops the pool and cleans up,
+    and end with the parent however it ends (no orphaned worker keeps computing)."""
     global _STATE
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _die_with_parent(parent)
     _STATE = state
+
+
+def _die_with_parent(parent: int) -> None:
+    """Ask Linux to SIGKILL this process when its parent (pid ``parent``) exits
+    (``PR_SET_PDEATHSIG``); exit now if it already has."""
+    if not sys.platform.startswith("linux"):
+        return
+    libc = ctypes.CDLL(None, use_errno=True)
+    libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    if os.getppid() != parent:
+        os._exit(1)
 
 
 def _call(fn: Callable[[Any, Any], Any], item: Any) -> Any:
@@ -96,7 +112,7 @@ def _sigint_held() -> Iterator[None]:
 
 def _map_pool(fn, state, items, jobs, window) -> Iterator[Any]:
     context = multiprocessing.get_context("fork")
-    pool = ProcessPoolExecutor(max_workers=jobs, mp_context=context, initializer=_init_worker, initargs=(state,))
+    pool = ProcessPoolExecutor(max_workers=jobs, mp_context=context, initializer=_init_worker, initargs=(state, os.getpid()))
     pending: deque = deque()
     try:
         iterator = iter(items)
