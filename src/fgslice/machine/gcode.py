@@ -33,6 +33,7 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable
 from functools import cache
+from operator import attrgetter
 from datetime import datetime, timezone
 from importlib import metadata
 from typing import TextIO
@@ -47,6 +48,9 @@ from fgslice.settings import Settings
 from fgslice.toolpaths.paths import Path, Role, bead_area
 
 INT_DIGITS = 9
+ROLES = tuple(Role)
+ROLE_CODE = {role: k for k, role in enumerate(ROLES)}
+TYPE_LINES = np.array([f";TYPE:{role.value}\n" for role in ROLES] + [""], dtype=object)
 GCODE_PLACEHOLDER = re.compile(r"\{([^{}\s]*)\}")
 
 
@@ -324,16 +328,15 @@ class GcodeWriter:
         self._time_s += self.dialect.change_time_s
         return "\n".join(self.dialect.state_commands(color)) + "\n"
 
-    def _feeds(self, roles: list[Role], layer_index: int) -> np.ndarray:
-        """Print speed (mm/s) of paths of ``roles`` on layer ``layer_index``."""
+    def _feeds(self, role_codes: np.ndarray, layer_index: int) -> np.ndarray:
+        """Print speed (mm/s) of paths of roles ``ROLES[role_codes]`` on layer ``layer_index``."""
         s = self.settings
         if layer_index == 0:
-            return np.full(len(roles), s.first_layer_speed)
-        kinds = np.array(roles, dtype=object)
-        feeds = np.full(len(roles), s.print_speed)
-        feeds[kinds == Role.EXTERNAL_PERIMETER] = s.outer_wall_speed
-        feeds[kinds == Role.INTERNAL_INFILL] = s.infill_speed
-        return feeds
+            return np.full(len(role_codes), s.first_layer_speed)
+        by_role = np.full(len(ROLES), s.print_speed)
+        by_role[ROLE_CODE[Role.EXTERNAL_PERIMETER]] = s.outer_wall_speed
+        by_role[ROLE_CODE[Role.INTERNAL_INFILL]] = s.infill_speed
+        return by_role[role_codes]
 
     def _retract_line(self, sign: int = -1) -> str:
         """``G1 E-<retract_length>`` (``sign`` -1) or the un-retraction (``sign`` 1)."""
@@ -356,11 +359,17 @@ class GcodeWriter:
         next printed path (or to ``trailing``).
         """
         s = self.settings
-        verts = [p.vertices for p in paths]
-        counts = np.fromiter((len(v) for v in verts), dtype=np.int64, count=len(verts))
+        arrays, closed, widths_all, heights, roles_all = zip(
+            *map(attrgetter("points", "closed", "width", "height", "role"), paths)
+        )
+        sizes = np.fromiter(map(len, arrays), dtype=np.int64, count=len(paths))
+        closed = np.array(closed, dtype=bool)
+        counts = sizes + closed  # a closed path's vertices end at its first point again
         first = np.zeros(len(paths) + 1, dtype=np.int64)
         np.cumsum(counts, out=first[1:])
-        pts = np.round(np.concatenate(verts), 3) + 0.0
+        source = np.repeat(np.cumsum(sizes) - sizes - first[:-1], counts) + np.arange(first[-1])
+        source[first[1:][closed] - 1] = source[first[:-1][closed]]
+        pts = np.round(np.concatenate(arrays)[source], 3) + 0.0
         seg = np.hypot(*np.diff(pts, axis=0).T)
         inside = np.ones(len(seg), dtype=bool)
         inside[first[1:-1] - 1] = False
@@ -375,7 +384,7 @@ class GcodeWriter:
         if not len(printed):
             return []
 
-        areas = bead_area(np.array([p.width for p in paths]), np.array([p.height for p in paths]))
+        areas = bead_area(np.array(widths_all), np.array(heights))
         lengths = seg[moves]
         exact = np.cumsum(lengths * areas[move_path] / self.filament_area) + self._e_total
         rounded = np.round(exact, 5)
@@ -387,15 +396,14 @@ class GcodeWriter:
         np.cumsum(n_moves, out=row_start[1:])
         chunks = _split(text, offsets, np.append(row_start[printed], row_start[-1]))
 
-        pp = [paths[i] for i in printed.tolist()]
-        n = len(pp)
-        roles = [p.role for p in pp]
-        widths = [p.width for p in pp]
-        feeds = self._feeds(roles, layer_index)
+        n = len(printed)
+        codes = np.fromiter(map(ROLE_CODE.__getitem__, roles_all), dtype=np.int64, count=len(paths))[printed]
+        widths = np.array(widths_all)[printed]
+        feeds = self._feeds(codes, layer_index)
         starts = pts[first[printed]]
         last = ends[row_start[printed + 1] - 1]
         prev = np.vstack([[np.nan, np.nan] if self._pos is None else [self._pos], last[:-1]])
-        unknown = np.array([resets[i] for i in printed.tolist()]) | np.isnan(prev[:, 0])
+        unknown = np.array(resets, dtype=bool)[printed] | np.isnan(prev[:, 0])
         travel = unknown | (starts != prev).any(axis=1)
         dist = np.where(unknown, 0.0, np.hypot(*(starts - np.nan_to_num(prev)).T))
         may_retract = np.ones(n, dtype=bool)
@@ -415,12 +423,11 @@ class GcodeWriter:
         header[travel] += np.array(_split(travel_text, travel_off, np.arange(travel.sum() + 1)), dtype=object)
         header[hop] += f"G1 Z{fmt(self._z, 3)} F{fmt(s.z_speed * 60, 1)}\n"
         header[retracted] += self._retract_line(1)
-        header += [
-            f";TYPE:{r.value}\n" if r is not q else "" for r, q in zip(roles, [self._role] + roles[:-1])
-        ]
-        header += [
-            f";WIDTH:{fmt(w, 4)}\n" if w != q else "" for w, q in zip(widths, [self._width] + widths[:-1])
-        ]
+        before_code = np.append(-1 if self._role is None else ROLE_CODE[self._role], codes[:-1])
+        header += TYPE_LINES[np.where(codes != before_code, codes, len(ROLES))]
+        new_width = widths != np.append(np.nan if self._width is None else self._width, widths[:-1])
+        width_lines = {w: f";WIDTH:{fmt(w, 4)}\n" for w in np.unique(widths[new_width]).tolist()}
+        header[new_width] += np.array([width_lines[w] for w in widths[new_width].tolist()], dtype=object)
         new_feed = travel | (feeds != np.append(np.nan if self._feed is None else self._feed, feeds[:-1]))
         feed_lines = {f: f"G1 F{fmt(f * 60, 1)}\n" for f in np.unique(feeds[new_feed]).tolist()}
         header[new_feed] += np.array([feed_lines[f] for f in feeds[new_feed].tolist()], dtype=object)
@@ -434,12 +441,12 @@ class GcodeWriter:
         volume = np.bincount(move_path, weights=e, minlength=len(paths))[printed] * self.filament_area
         for color, v in zip(np.array(colors)[printed].tolist(), volume.tolist()):
             self._volume_by_color[color] = self._volume_by_color.get(color, 0.0) + v
-        self._purge_mm3 += float(volume[[r is Role.WIPE_TOWER for r in roles]].sum())
+        self._purge_mm3 += float(volume[codes == ROLE_CODE[Role.WIPE_TOWER]].sum())
         shown = np.concatenate([starts, ends])
         self._bbox_min = np.minimum(self._bbox_min, [*shown.min(axis=0), self._z])
         self._bbox_max = np.maximum(self._bbox_max, [*shown.max(axis=0), self._z])
         self._pos = (float(last[-1, 0]), float(last[-1, 1]))
-        self._role, self._width, self._feed = roles[-1], widths[-1], float(feeds[-1])
+        self._role, self._width, self._feed = ROLES[codes[-1]], float(widths[-1]), float(feeds[-1])
         self._retracted = False
         self._extruded = True
         return [piece for pair in zip(header.tolist(), chunks) for piece in pair]
