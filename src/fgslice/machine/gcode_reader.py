@@ -19,10 +19,13 @@ such content. A file that is not G-code text (binary, empty, no moves) is a
 
 from __future__ import annotations
 
+import io
 import math
 import os
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import BinaryIO
 
 import numpy as np
 
@@ -136,30 +139,63 @@ class GcodeProgram:
         return colors[self.state]
 
 
-def _load_bytes(path_or_text: str | os.PathLike | bytes) -> tuple[bytes, str | None]:
-    """The bytes of a file, of bytes or of a string holding G-code; and the file name if any."""
-    name = None
+CHUNK_LINES = 1 << 18
+_BLOCK_BYTES = 8 << 20
+_BINARY_PROBE = 65536
+
+
+def _open(path_or_text: str | os.PathLike | bytes) -> tuple[BinaryIO, str | None]:
+    """A binary stream over a file, bytes or a string holding G-code; and the file name if any."""
     if isinstance(path_or_text, os.PathLike) or (
         isinstance(path_or_text, str) and "\n" not in path_or_text and len(path_or_text) < 4096
         and os.path.isfile(path_or_text)
     ):
         name = str(path_or_text)
         try:
-            data = Path(path_or_text).read_bytes()
+            return open(path_or_text, "rb"), name  # noqa: SIM115 - closed by iter_gcode
         except OSError as exc:
             raise GcodeError(f"cannot read G-code: {exc.strerror}", file=name) from None
-    elif isinstance(path_or_text, bytes):
-        data = path_or_text
-    elif "\n" not in path_or_text and Path(path_or_text).suffix.lower() in (".gcode", ".gco", ".g", ".nc"):
+    if isinstance(path_or_text, bytes):
+        return io.BytesIO(path_or_text), None
+    if "\n" not in path_or_text and Path(path_or_text).suffix.lower() in (".gcode", ".gco", ".g", ".nc"):
         raise GcodeError("G-code file not found", file=path_or_text)
-    else:
-        data = str(path_or_text).encode("utf-8", errors="replace")
-    if b"\x00" in data[:65536]:
-        raise GcodeError("not G-code text: it holds binary data", file=name,
-                         hint="binary G-code (.bgcode) is not supported; export plain G-code")
-    if data.isspace() or not data:
-        raise GcodeError("the G-code is empty", file=name)
-    return data, name
+    return io.BytesIO(str(path_or_text).encode("utf-8", errors="replace")), None
+
+
+def _line_chunks(stream: BinaryIO, name: str | None, chunk_lines: int) -> Iterator[bytes]:
+    """The stream's text in pieces of whole lines: at most ``chunk_lines`` lines, and at most
+    one block of ``_BLOCK_BYTES`` bytes unless a single line is longer. Only the last piece
+    may lack its final newline.
+
+    Raises:
+        GcodeError: the stream cannot be read or starts with binary data.
+    """
+    rest = b""
+    probe = True
+    while True:
+        try:
+            block = stream.read(_BLOCK_BYTES)
+        except OSError as exc:
+            raise GcodeError(f"cannot read G-code: {exc.strerror}", file=name) from None
+        if probe and b"\x00" in block[:_BINARY_PROBE]:
+            raise GcodeError("not G-code text: it holds binary data", file=name,
+                             hint="binary G-code (.bgcode) is not supported; export plain G-code")
+        probe = False
+        if not block:
+            if rest:
+                yield rest
+            return
+        data = rest + block if rest else block
+        newlines = np.flatnonzero(np.frombuffer(data, dtype=np.uint8) == 10)
+        if not len(newlines):
+            rest = data
+            continue
+        cuts = [0, *(newlines[chunk_lines - 1 :: chunk_lines] + 1).tolist()]
+        if cuts[-1] != newlines[-1] + 1:
+            cuts.append(int(newlines[-1]) + 1)
+        for a, b in zip(cuts[:-1], cuts[1:]):
+            yield data[a:b]
+        rest = data[cuts[-1] :]
 
 
 _TOKEN_WIDTH = 16
@@ -210,23 +246,18 @@ def _arc_lengths(start: np.ndarray, end: np.ndarray, i: np.ndarray, j: np.ndarra
 
 
 class _Events:
-    """The sequential part of reading: every line that is not a G0-G3 move."""
+    """The sequential part of reading: every line that is not a G0-G3 move.
+
+    ``after[0]`` is the state at the start of the current chunk, ``after[k]`` the one in
+    force after line ``lines[k - 1]``.
+    """
 
     def __init__(self) -> None:
-        self.faults: list[Fault] = []
-        self.unknown: list[int] = []
-        self.temperatures: list[TemperatureEvent] = []
-        self.tools: list[ValueEvent] = []
-        self.flows: list[ValueEvent] = []
-        self.mixes: list[ValueEvent] = []
-        self.fans: list[ValueEvent] = []
-        self.outputs: list[ValueEvent] = []
         self.roles: list[str] = []
         self.role_index: dict[str, int] = {}
         self.layer_z: list[float] = []
         self.states: list[MachineState] = []
         self.state_index: dict[MachineState, int] = {}
-        self.positional: list[tuple[int, str, dict[str, float], set[str]]] = []
         self.layer = -1
         self.role = -1
         self.width = math.nan
@@ -237,8 +268,21 @@ class _Events:
         self.pending_mix: dict[int, float] = {}
         self.color: int | None = None
         self.state = self._state()
+        self.begin_chunk()
+
+    def begin_chunk(self) -> None:
+        """Start new event lists; the interpreter state (layer, role, state, ...) carries on."""
+        self.faults: list[Fault] = []
+        self.unknown: list[int] = []
+        self.temperatures: list[TemperatureEvent] = []
+        self.tools: list[ValueEvent] = []
+        self.flows: list[ValueEvent] = []
+        self.mixes: list[ValueEvent] = []
+        self.fans: list[ValueEvent] = []
+        self.outputs: list[ValueEvent] = []
+        self.positional: list[tuple[int, str, dict[str, float], set[str]]] = []
         self.lines: list[int] = []
-        self.after: list[tuple[int, int, int, float]] = []
+        self.after: list[tuple[int, int, int, float]] = [(self.layer, self.role, self.state, self.width)]
 
     def _state(self) -> int:
         s = MachineState(self.mix, self.tool, self.temps.get(self.tool), self.flow.get(self.tool, 100.0), self.color)
@@ -438,8 +482,165 @@ def _tokens(padded: np.ndarray, n_bytes: int, first: np.ndarray, is_move: np.nda
     return lid, padded[pos] & 0xDF, values, valid
 
 
-def read_gcode(path_or_text: str | os.PathLike | bytes) -> GcodeProgram:
-    """Read G-code from a file path, bytes or a string holding the text.
+class _Reader:
+    """Reads G-code chunk by chunk, carrying the machine's state from one chunk to the next:
+    position (mm), E (mm) and its G92 offset, absolute/relative modes, feed rate, line
+    count, and (in :class:`_Events`) layer, role, width, tool, temperatures, flow, mix."""
+
+    def __init__(self) -> None:
+        self.events = _Events()
+        self.pos = np.zeros(3)
+        self.e_pos = 0.0
+        self.rel_xyz = self.rel_e = False
+        self.feed = 0.0
+        self.line_count = 0
+
+    def _integrate(self, axis: dict[str, np.ndarray], move_numbers: np.ndarray,
+                   start: np.ndarray, end: np.ndarray, de: np.ndarray) -> None:
+        """Fill ``start``/``end``/``de`` of the chunk's moves, stepping through the
+        positional commands (G90/G91/M82/M83/G92/G28) between them."""
+        positional = self.events.positional
+        n_rows = len(move_numbers)
+        bounds = np.searchsorted(move_numbers, [ev[0] for ev in positional]).tolist() + [n_rows]
+        begin = 0
+        for k, stop in enumerate(bounds):
+            if stop > begin:
+                for a, letter in enumerate("XYZ"):
+                    v = axis[letter][begin:stop]
+                    end[begin:stop, a] = (self.pos[a] + np.cumsum(np.nan_to_num(v)) if self.rel_xyz
+                                          else _ffill(v, self.pos[a]))
+                start[begin] = self.pos
+                start[begin + 1 : stop] = end[begin : stop - 1]
+                ve = axis["E"][begin:stop]
+                if self.rel_e:
+                    de[begin:stop] = np.nan_to_num(ve)
+                else:
+                    absolute = _ffill(ve, self.e_pos)
+                    de[begin:stop] = np.diff(absolute, prepend=self.e_pos)
+                    self.e_pos = float(absolute[-1])
+                self.pos = end[stop - 1].copy()
+                begin = stop
+            if k == len(positional):
+                break
+            _, cmd, p, words = positional[k]
+            if cmd == "G90":
+                self.rel_xyz = self.rel_e = False
+            elif cmd == "G91":
+                self.rel_xyz = self.rel_e = True
+            elif cmd == "M82":
+                self.rel_e = False
+            elif cmd == "M83":
+                self.rel_e = True
+            elif cmd == "G92":
+                self.pos = np.array([p.get("X", self.pos[0]), p.get("Y", self.pos[1]), p.get("Z", self.pos[2])])
+                self.e_pos = p.get("E", self.e_pos)
+            else:
+                homed = words & set("XYZ") or set("XYZ")
+                self.pos = np.array([0.0 if a in homed else self.pos[i] for i, a in enumerate("XYZ")])
+
+    def chunk(self, data: bytes) -> GcodeProgram:
+        """The moves and events of ``data`` (whole lines following the previous chunk)."""
+        offset = self.line_count
+        buf = np.frombuffer(data, dtype=np.uint8)
+        newlines = np.flatnonzero(buf == 10)
+        ends = newlines if buf[-1] == 10 else np.append(newlines, len(buf))
+        starts = np.concatenate([[0], newlines + 1])[: len(ends)]
+        n_lines = len(ends)
+        self.line_count += n_lines
+        padded = np.concatenate([buf, np.zeros(_TOKEN_WIDTH + 2, dtype=np.uint8)])
+
+        first = starts.copy()
+        for i in np.flatnonzero((padded[starts] == 32) | (padded[starts] == 9)).tolist():
+            line = data[starts[i] : ends[i]]
+            first[i] += len(line) - len(line.lstrip())
+        c0, c1, c2 = padded[first], padded[first + 1], padded[first + 2]
+        is_move = ((c0 == ord("G")) | (c0 == ord("g"))) & (c1 >= ord("0")) & (c1 <= ord("3")) & (
+            _MOVE_END_TABLE[c2] | (first + 2 >= ends)
+        )
+        empty = first >= ends
+        plain_comment = (c0 == ord(";")) & ~_COMMENT_KEYS[c1]
+        semis = np.flatnonzero(buf == ord(";"))
+        comment_start = ends.copy()
+        if len(semis):
+            semi_line = np.searchsorted(starts, semis, side="right") - 1
+            uniq, at = np.unique(semi_line, return_index=True)
+            comment_start[uniq] = semis[at]
+
+        events = self.events
+        events.begin_chunk()
+        for i in np.flatnonzero(~(is_move | empty | plain_comment)).tolist():
+            raw = data[first[i] : ends[i]].decode("utf-8", errors="replace").rstrip()
+            if raw.startswith(";"):
+                events.comment(raw, offset + i + 1)
+            else:
+                events.command(raw, offset + i + 1)
+            events.record(offset + i + 1)
+
+        move_lines = np.flatnonzero(is_move)
+        n_rows = len(move_lines)
+        row_of_line = np.full(n_lines, -1, dtype=np.int64)
+        row_of_line[move_lines] = np.arange(n_rows)
+        lid, letters, values, valid = _tokens(padded, len(buf), first, is_move, comment_start)
+        faults = list(events.faults)
+        for i in np.flatnonzero(~valid).tolist():
+            word = data[starts[lid[i]] : ends[lid[i]]].decode("utf-8", errors="replace").split(";")[0].strip()
+            faults.append(Fault(offset + int(lid[i]) + 1, f"{word}: {chr(letters[i])} value is not a finite number"))
+        table = np.full((n_rows, len(_AXES)), np.nan)
+        table[row_of_line[lid[valid]], _AXIS_COLUMN[letters[valid]]] = values[valid]
+        axis = {letter: table[:, k] for k, letter in enumerate(_AXES)}
+
+        move_numbers = move_lines + (offset + 1)
+        end = np.empty((n_rows, 3))
+        start = np.empty((n_rows, 3))
+        de = np.zeros(n_rows)
+        self._integrate(axis, move_numbers, start, end, de)
+        feed = _ffill(axis["F"], self.feed)
+        if n_rows:
+            self.feed = float(feed[-1])
+        code = (padded[first[move_lines] + 1] - ord("0")).astype(np.int64)
+        length = np.hypot(end[:, 0] - start[:, 0], end[:, 1] - start[:, 1])
+        arcs = code >= 2
+        if arcs.any():
+            length[arcs] = _arc_lengths(start[arcs], end[arcs], axis["I"][arcs], axis["J"][arcs], axis["R"][arcs],
+                                        code[arcs] == 2)
+        moved = ~(np.isnan(axis["X"]) & np.isnan(axis["Y"]) & np.isnan(axis["Z"]) & np.isnan(axis["E"]))
+        after = np.array(events.after, dtype=float)
+        per_move = after[np.searchsorted(np.array(events.lines, dtype=np.int64), move_numbers[moved])]
+        return GcodeProgram(
+            start=start[moved],
+            end=end[moved],
+            e=de[moved],
+            feed=feed[moved],
+            length=length[moved],
+            line=move_numbers[moved],
+            layer=per_move[:, 0].astype(np.int64),
+            role=per_move[:, 1].astype(np.int64),
+            state=per_move[:, 2].astype(np.int64),
+            width=per_move[:, 3],
+            roles=events.roles,
+            states=events.states,
+            layer_z=events.layer_z,
+            temperatures=events.temperatures,
+            tools=events.tools,
+            flows=events.flows,
+            mixes=events.mixes,
+            fans=events.fans,
+            outputs=events.outputs,
+            faults=sorted(faults, key=lambda f: f.line),
+            unknown_lines=np.array(events.unknown, dtype=np.int64),
+            line_count=self.line_count,
+        )
+
+
+def iter_gcode(path_or_text: str | os.PathLike | bytes, *, chunk_lines: int = CHUNK_LINES) -> Iterator[GcodeProgram]:
+    """Read G-code (a file path, bytes or a string holding the text) in chunks of whole lines.
+
+    Each chunk is a :class:`GcodeProgram` of at most ``chunk_lines`` lines (and about
+    8 MB): its moves and events with global (whole-file) line numbers, read with the
+    state the previous chunks left (positions, modes, E, layer, role, width, process
+    state). ``roles``, ``states`` and ``layer_z`` are the same lists in every chunk and
+    grow as the file is read, so indices stay valid; ``line_count`` counts the lines read
+    so far. Memory stays bounded by the chunk size whatever the file's length.
 
     Moves (G0-G3) are parsed in bulk with numpy; every other line goes through a small
     sequential interpreter. In moves, words are separated by blanks (``G1 X1 Y2``, as
@@ -447,135 +648,51 @@ def read_gcode(path_or_text: str | os.PathLike | bytes) -> GcodeProgram:
     exponents, NaN, inf and other text are faults.
 
     Raises:
-        GcodeError: the input is not readable G-code text, is empty or has no moves.
+        GcodeError: the input is not readable G-code text; or, after the last chunk, it
+            was empty or had no moves.
     """
-    data, name = _load_bytes(path_or_text)
-    buf = np.frombuffer(data, dtype=np.uint8)
-    newlines = np.flatnonzero(buf == 10)
-    ends = newlines if buf[-1] == 10 else np.append(newlines, len(buf))
-    starts = np.concatenate([[0], newlines + 1])[: len(ends)]
-    n_lines = len(ends)
-    padded = np.concatenate([buf, np.zeros(_TOKEN_WIDTH + 2, dtype=np.uint8)])
-
-    first = starts.copy()
-    for i in np.flatnonzero((padded[starts] == 32) | (padded[starts] == 9)).tolist():
-        line = data[starts[i] : ends[i]]
-        first[i] += len(line) - len(line.lstrip())
-    c0, c1, c2 = padded[first], padded[first + 1], padded[first + 2]
-    is_move = ((c0 == ord("G")) | (c0 == ord("g"))) & (c1 >= ord("0")) & (c1 <= ord("3")) & (
-        _MOVE_END_TABLE[c2] | (first + 2 >= ends)
-    )
-    empty = first >= ends
-    plain_comment = (c0 == ord(";")) & ~_COMMENT_KEYS[c1]
-    semis = np.flatnonzero(buf == ord(";"))
-    comment_start = ends.copy()
-    if len(semis):
-        semi_line = np.searchsorted(starts, semis, side="right") - 1
-        uniq, at = np.unique(semi_line, return_index=True)
-        comment_start[uniq] = semis[at]
-
-    events = _Events()
-    for i in np.flatnonzero(~(is_move | empty | plain_comment)).tolist():
-        raw = data[first[i] : ends[i]].decode("utf-8", errors="replace").rstrip()
-        if raw.startswith(";"):
-            events.comment(raw, i + 1)
-        else:
-            events.command(raw, i + 1)
-        events.record(i + 1)
-
-    move_lines = np.flatnonzero(is_move)
-    n_rows = len(move_lines)
-    row_of_line = np.full(n_lines, -1, dtype=np.int64)
-    row_of_line[move_lines] = np.arange(n_rows)
-    lid, letters, values, valid = _tokens(padded, len(buf), first, is_move, comment_start)
-    faults = list(events.faults)
-    for i in np.flatnonzero(~valid).tolist():
-        word = data[starts[lid[i]] : ends[lid[i]]].decode("utf-8", errors="replace").split(";")[0].strip()
-        faults.append(Fault(int(lid[i]) + 1, f"{word}: {chr(letters[i])} value is not a finite number"))
-    table = np.full((n_rows, len(_AXES)), np.nan)
-    table[row_of_line[lid[valid]], _AXIS_COLUMN[letters[valid]]] = values[valid]
-    axis = {letter: table[:, k] for k, letter in enumerate(_AXES)}
-
-    move_numbers = move_lines + 1
-    end = np.empty((n_rows, 3))
-    start = np.empty((n_rows, 3))
-    de = np.zeros(n_rows)
-    bounds = np.searchsorted(move_numbers, [ev[0] for ev in events.positional]).tolist() + [n_rows]
-    pos = np.zeros(3)
-    e_pos = 0.0
-    rel_xyz = rel_e = False
-    begin = 0
-    for k, stop in enumerate(bounds):
-        if stop > begin:
-            for a, letter in enumerate("XYZ"):
-                v = axis[letter][begin:stop]
-                end[begin:stop, a] = pos[a] + np.cumsum(np.nan_to_num(v)) if rel_xyz else _ffill(v, pos[a])
-            start[begin] = pos
-            start[begin + 1 : stop] = end[begin : stop - 1]
-            ve = axis["E"][begin:stop]
-            if rel_e:
-                de[begin:stop] = np.nan_to_num(ve)
-            else:
-                absolute = _ffill(ve, e_pos)
-                de[begin:stop] = np.diff(absolute, prepend=e_pos)
-                e_pos = float(absolute[-1])
-            pos = end[stop - 1].copy()
-            begin = stop
-        if k == len(events.positional):
-            break
-        _, cmd, p, words = events.positional[k]
-        if cmd == "G90":
-            rel_xyz = rel_e = False
-        elif cmd == "G91":
-            rel_xyz = rel_e = True
-        elif cmd == "M82":
-            rel_e = False
-        elif cmd == "M83":
-            rel_e = True
-        elif cmd == "G92":
-            pos = np.array([p.get("X", pos[0]), p.get("Y", pos[1]), p.get("Z", pos[2])])
-            e_pos = p.get("E", e_pos)
-        else:
-            homed = words & set("XYZ") or set("XYZ")
-            pos = np.array([0.0 if a in homed else pos[i] for i, a in enumerate("XYZ")])
-
-    feed = _ffill(axis["F"], 0.0)
-    code = (padded[first[move_lines] + 1] - ord("0")).astype(np.int64)
-    length = np.hypot(end[:, 0] - start[:, 0], end[:, 1] - start[:, 1])
-    arcs = code >= 2
-    if arcs.any():
-        length[arcs] = _arc_lengths(start[arcs], end[arcs], axis["I"][arcs], axis["J"][arcs], axis["R"][arcs],
-                                    code[arcs] == 2)
-    moved = ~(np.isnan(axis["X"]) & np.isnan(axis["Y"]) & np.isnan(axis["Z"]) & np.isnan(axis["E"]))
-    if not moved.any():
+    if chunk_lines < 1:
+        raise ValueError("chunk_lines must be at least 1")
+    stream, name = _open(path_or_text)
+    reader = _Reader()
+    blank = True
+    moves = 0
+    with stream:
+        for data in _line_chunks(stream, name, chunk_lines):
+            blank = blank and data.isspace()
+            program = reader.chunk(data)
+            moves += len(program.e)
+            yield program
+    if blank:
+        raise GcodeError("the G-code is empty", file=name)
+    if not moves:
         raise GcodeError(
             "no moves found: this is not G-code, or it only sets up the machine",
             file=name,
             hint="expected G0/G1 lines such as 'G1 X10 Y10 E0.5'",
         )
-    after = np.array([(-1.0, -1.0, 0.0, np.nan), *events.after])
-    per_move = after[np.searchsorted(np.array(events.lines, dtype=np.int64), move_numbers)]
-    return GcodeProgram(
-        start=start[moved],
-        end=end[moved],
-        e=de[moved],
-        feed=feed[moved],
-        length=length[moved],
-        line=move_numbers[moved],
-        layer=per_move[moved, 0].astype(np.int64),
-        role=per_move[moved, 1].astype(np.int64),
-        state=per_move[moved, 2].astype(np.int64),
-        width=per_move[moved, 3],
-        roles=events.roles,
-        states=events.states,
-        layer_z=events.layer_z,
-        temperatures=events.temperatures,
-        tools=events.tools,
-        flows=events.flows,
-        mixes=events.mixes,
-        fans=events.fans,
-        outputs=events.outputs,
-        faults=sorted(faults, key=lambda f: f.line),
-        unknown_lines=np.array(events.unknown, dtype=np.int64),
-        line_count=n_lines,
-    )
+
+
+_ARRAY_FIELDS = ("start", "end", "e", "feed", "length", "line", "layer", "role", "state", "width", "unknown_lines")
+_EVENT_FIELDS = ("temperatures", "tools", "flows", "mixes", "fans", "outputs", "faults")
+
+
+def read_gcode(path_or_text: str | os.PathLike | bytes, *, chunk_lines: int = CHUNK_LINES) -> GcodeProgram:
+    """The whole program of a G-code file, bytes or string: the chunks of
+    :func:`iter_gcode` joined (each array is joined and the chunks' copies dropped in
+    turn, so the peak is about the result plus one array).
+
+    Raises:
+        GcodeError: the input is not readable G-code text, is empty or has no moves.
+    """
+    parts: dict[str, list] = {name: [] for name in _ARRAY_FIELDS}
+    events: dict[str, list] = {name: [] for name in _EVENT_FIELDS}
+    last = None
+    for last in iter_gcode(path_or_text, chunk_lines=chunk_lines):
+        for name, arrays in parts.items():
+            arrays.append(getattr(last, name))
+        for name, items in events.items():
+            items.extend(getattr(last, name))
+    joined = {name: np.concatenate(parts.pop(name)) for name in _ARRAY_FIELDS}
+    return GcodeProgram(**joined, **events, roles=last.roles, states=last.states, layer_z=last.layer_z,
+                        line_count=last.line_count)
