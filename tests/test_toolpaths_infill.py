@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import shapely
 
-from fgslice.toolpaths.infill import concentric, rectilinear
+from fgslice.toolpaths.infill import concentric, rectilinear, solid_fill
 from fgslice.toolpaths.paths import Role, bead_area
 
 W, H = 0.4, 0.2
@@ -73,3 +73,19 @@ def test_zero_density_and_empty_region():
     assert rectilinear(region(), 0, 0, W, H, Role.INTERNAL_INFILL) == []
     assert rectilinear(shapely.Polygon(), 20, 0, W, H, Role.INTERNAL_INFILL) == []
     assert concentric(shapely.Polygon(), 20, W, H, Role.INTERNAL_INFILL) == []
+
+
+def test_solid_fill_of_many_regions_keeps_each_region_and_its_volume():
+    # three disjoint regions filled in one pass: each path stays in its own region (no
+    # link crosses between them) and each region gets its volume
+    regions = [
+        shapely.box(0, 0, 20, 3),
+        shapely.Point(40, 10).buffer(8, quad_segs=32).difference(shapely.Point(40, 10).buffer(3, quad_segs=32)),
+        shapely.Polygon([(0, 6), (30, 6), (0, 20)]),
+    ]
+    paths = solid_fill(regions, 30.0, W, H, Role.SOLID_INFILL, [7, 8, 9])
+    assert {p.color for p in paths} == {7, 8, 9}
+    for color, area in zip([7, 8, 9], regions):
+        mine = [p for p in paths if p.color == color]
+        assert all(area.buffer(1e-3).covers(shapely.LineString(p.points)) for p in mine)
+        assert volume(mine) / (area.area * H) == pytest.approx(1.0, abs=0.03)

@@ -79,3 +79,27 @@ def test_no_walls_inner_is_half_bead_inside():
     walls = make_walls(outline, 0, W, H)
     assert walls.paths == []
     assert abs(walls.inner.area - outline.buffer(-W / 2, join_style="mitre").area) < 1e-6
+
+
+def dumbbell():
+    """Two plates joined by a 0.9 mm neck: the third loop's erosion splits there."""
+    return shapely.MultiPolygon([shapely.union_all([shapely.box(0, 0, 10, 10), shapely.box(10, 4.55, 14, 5.45), shapely.box(14, 0, 24, 10)])])
+
+
+def ellipse():
+    return shapely.MultiPolygon([shapely.affinity.scale(shapely.Point(50, 50).buffer(1, quad_segs=64), 20, 30)])
+
+
+@pytest.mark.parametrize("shape", [ellipse, dumbbell, plate_with_hole])
+def test_loops_are_the_opened_erosions(shape):
+    # loop k is the boundary of the outline eroded by w/2 + k s and opened by s/2, whether
+    # the opening is skipped (no event between levels) or computed (the neck)
+    outline, count = shape(), 6
+    s = bead_spacing(W, H)
+    walls = make_walls(outline, count, W, H, outer_first=True)
+    dist = W / 2 + s * np.arange(count)
+    opened = shapely.buffer(shapely.buffer(outline, -(dist + s / 2), join_style="mitre", mitre_limit=3), s / 2,
+                            join_style="mitre", mitre_limit=3)
+    expected = shapely.union_all(shapely.boundary(opened))
+    got = shapely.union_all([shapely.LinearRing(p.points) for p in walls.paths])
+    assert shapely.hausdorff_distance(got, expected) < 1e-6
