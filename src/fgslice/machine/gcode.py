@@ -71,13 +71,13 @@ def fmt(value: float, decimals: int) -> str:
 
 
 @cache
-def _digit_tables(decimals: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Byte tables of number pieces, 0 where nothing is printed.
+def _digit_tables(decimals: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Byte tables of number pieces, 0 where nothing is printed, and their printed lengths.
 
     Returns ``full`` ``(1000, 3)``: the three digits of 0..999; ``lead`` ``(1000, 3)``:
-    the same without leading zeros (``0`` as "0", right-aligned); ``frac``
-    ``(10**decimals, decimals + 1)``: ``.`` and the decimals of 0..10**decimals - 1
-    without trailing zeros (nothing for 0).
+    the same without leading zeros (``0`` as "0", right-aligned) and ``lead_len``;
+    ``frac`` ``(10**decimals, decimals + 1)``: ``.`` and the decimals of
+    0..10**decimals - 1 without trailing zeros (nothing for 0) and ``frac_len``.
     """
     v = np.arange(1000)
     digits = np.stack([v // 100, v // 10 % 10, v % 10], axis=1)
@@ -89,36 +89,45 @@ def _digit_tables(decimals: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     frac = np.zeros((f.size, decimals + 1), dtype=np.uint8)
     frac[:, 1:] = np.where(f[:, None] % (10 * power) != 0, f[:, None] // power % 10 + 48, 0)
     frac[:, 0] = np.where(f != 0, 46, 0)
-    return full, lead, frac
+    return full, lead, np.count_nonzero(lead, axis=1), frac, np.count_nonzero(frac, axis=1)
 
 
-def _number_block(values: np.ndarray, decimals: int) -> np.ndarray:
-    """ASCII bytes of ``values`` with at most ``decimals`` decimals, one row per value.
+def _number_block(values: np.ndarray, decimals: int) -> tuple[np.ndarray, np.ndarray]:
+    """ASCII bytes of ``values`` with at most ``decimals`` decimals, one row per value,
+    and the number of printed bytes of each row.
 
     The ``(n, w)`` uint8 columns are sign, integer digits (most significant first), point
     and decimals; bytes that are not printed (leading zeros, trailing zeros of the
     fraction, the point of whole numbers, the sign of non-negative values) are 0 and
     removed by the caller. Digits come from lookup tables, three integer digits at a time.
     """
-    full, lead, frac = _digit_tables(decimals)
+    full, lead, lead_len, frac, frac_len = _digit_tables(decimals)
     q = np.rint(np.abs(values) * 10.0**decimals).astype(np.int64)
     whole, part = np.divmod(q, 10**decimals)
     top = int(whole.max()) if q.size else 0
     if top >= 10**INT_DIGITS:
         raise ValueError(f"cannot write a G-code number of more than {INT_DIGITS} integer digits")
-    groups = [whole % 1000]
-    while 1000 ** len(groups) <= top:
-        groups.append(whole // 1000 ** len(groups) % 1000)
-    sign = np.where((values < 0) & (q != 0), np.uint8(45), np.uint8(0))[:, None]
-    blocks = [sign]
-    for k in range(len(groups) - 1, -1, -1):
-        shown = np.take(lead, groups[k], axis=0)
+    negative = (values < 0) & (q != 0)
+    blocks = [np.where(negative, np.uint8(45), np.uint8(0))[:, None]]
+    lengths = negative + np.take(frac_len, part)
+    groups = 1
+    while 1000**groups <= top:
+        groups += 1
+    for k in range(groups - 1, -1, -1):
+        group = whole // 1000**k % 1000
+        shown = np.take(lead, group, axis=0)
+        size = np.take(lead_len, group)
         if k:
-            shown[groups[k] == 0] = 0  # a leading group of zeros
+            size[whole < 1000**k] = 0  # a leading group of zeros
+            shown[whole < 1000**k] = 0
         higher = whole >= 1000 ** (k + 1)
-        blocks.append(np.where(higher[:, None], np.take(full, groups[k], axis=0), shown))
+        if higher.any():
+            shown[higher] = np.take(full, group[higher], axis=0)
+            size[higher] = 3
+        blocks.append(shown)
+        lengths += size
     blocks.append(np.take(frac, part, axis=0))
-    return np.concatenate(blocks, axis=1)
+    return np.concatenate(blocks, axis=1), lengths
 
 
 def format_lines(fields: list[tuple[str, np.ndarray, int]], suffix: str = "\n") -> tuple[str, np.ndarray]:
@@ -137,13 +146,21 @@ def format_lines(fields: list[tuple[str, np.ndarray, int]], suffix: str = "\n") 
             raise ValueError("a toolpath has a non-finite coordinate")
 
     blocks: list[np.ndarray] = []
+    lengths = np.full(n, len(suffix), dtype=np.int64)
     for text, values, decimals in fields:
-        blocks += [_literal(text, n), _number_block(values, decimals)]
-    matrix = np.concatenate(blocks + [_literal(suffix, n)], axis=1)
-    keep = matrix != 0
+        number, size = _number_block(values, decimals)
+        blocks += [_literal(text, n), number]
+        lengths += len(text) + size
+    blocks.append(_literal(suffix, n))
+    columns = np.empty((sum(b.shape[1] for b in blocks), n), dtype=np.uint8)  # filled column-major: faster
+    start = 0
+    for block in blocks:
+        columns[start : start + block.shape[1]] = block.T
+        start += block.shape[1]
+    matrix = columns.T
     offsets = np.zeros(n + 1, dtype=np.int64)
-    np.cumsum(keep.sum(axis=1), out=offsets[1:])
-    return matrix[keep].tobytes().decode("ascii"), offsets
+    np.cumsum(lengths, out=offsets[1:])
+    return matrix.tobytes().translate(None, b"\0").decode("ascii"), offsets
 
 
 def _literal(text: str, n: int) -> np.ndarray:
