@@ -240,3 +240,14 @@ def test_paper_vase_gradient_matches_the_formula():
     x, y = 12.0, -30.0
     expected = (1 + math.sin(0.025 * x + 0.0375 * y) * math.cos(0.0375 * x - 0.025 * y)) / 2
     np.testing.assert_allclose(at(design, x, y, 0), [expected, 1 - expected])
+
+
+def test_deep_nesting_is_refused_before_parsing_with_its_location():
+    import time
+
+    text = "union(){" * 20000 + "sphere(1);" + "}" * 20000
+    started = time.perf_counter()
+    with pytest.raises(DesignError) as info:
+        parse_design(text, file="deep.vcad")
+    assert time.perf_counter() - started < 1.0
+    assert info.value.line == 1 and info.value.column == 8 * 200 + 8

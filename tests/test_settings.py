@@ -62,3 +62,11 @@ def test_user_profile_inherits_a_builtin(tmp_path):
     path.write_text('inherits = "toolchanger"\n[speeds]\nprint_speed = 55\n', encoding="utf-8")
     s = load_settings(str(path))
     assert s.dialect == "toolchanger" and s.print_speed == 55 and s.profile_name == "mine"
+
+
+def test_inconsistent_settings_are_named_without_dumping_every_value():
+    with pytest.raises(SettingsError) as info:
+        load_settings(None, parse_overrides(["layer_height=0.5"]))
+    text = info.value.format()
+    assert "inconsistent settings" in text and "bead_width" in text
+    assert "profile_name" not in text

@@ -225,6 +225,8 @@ def _raise_validation(exc: ValidationError, origin: str) -> None:
             hint=did_you_mean(key, Settings.model_fields) or "run 'fgslice profiles --keys' for the list",
         ) from None
     msg = first["msg"].removeprefix("Value error, ")
+    if not first["loc"]:
+        raise SettingsError(f"inconsistent settings ({origin}): {msg}") from None
     raise SettingsError(f"setting '{key}' = {first.get('input')!r} is invalid ({origin}): {msg}") from None
 
 

@@ -11,10 +11,12 @@ from __future__ import annotations
 
 import functools
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
 import lark
+import numpy as np
 
 from fgslice.design import nodes
 from fgslice.design.materials import MaterialLibrary, builtin_library, load_library
@@ -447,6 +449,34 @@ def _library(materials) -> MaterialLibrary:
     return load_library(materials)
 
 
+MAX_DESIGN_CHARS = 5_000_000
+"""Longest design text accepted (characters); larger files are refused before parsing."""
+
+_STRINGS_AND_COMMENTS = re.compile(r'"[^"]*"|//[^\n]*|/\*.*?\*/', re.DOTALL)
+
+
+def _check_size_and_nesting(text: str, file: str | None) -> None:
+    """Refuse huge texts and blocks nested deeper than :data:`nodes.MAX_DEPTH` before the
+    parser spends time on them (a linear scan of the braces outside strings and comments)."""
+    if len(text) > MAX_DESIGN_CHARS:
+        raise DesignSyntaxError(
+            f"the design is {len(text):,} characters long; the limit is {MAX_DESIGN_CHARS:,}",
+            file=file, hint="large geometry belongs in a mesh file: mesh(\"part.stl\")",
+        )
+    code = np.frombuffer(_STRINGS_AND_COMMENTS.sub(lambda m: " " * len(m.group(0)), text).encode("utf-32-le"), dtype=np.uint32)
+    depth = np.cumsum((code == ord("{")).astype(np.int32) - (code == ord("}")))
+    deepest = int(np.argmax(depth)) if len(depth) else 0
+    if len(depth) and depth[deepest] > nodes.MAX_DEPTH:
+        first = int(np.argmax(depth > nodes.MAX_DEPTH))
+        line = text.count("\n", 0, first) + 1
+        column = first - (text.rfind("\n", 0, first) + 1) + 1
+        raise DesignError(
+            f"the design nests more than {nodes.MAX_DEPTH} levels deep",
+            file=file, line=line, column=column, source_line=text.splitlines()[line - 1],
+            hint="flatten the tree: a union takes any number of children",
+        )
+
+
 def parse_design(
     text: str,
     *,
@@ -467,6 +497,7 @@ def parse_design(
     library = _library(materials)
     if "\x00" in text:
         raise DesignSyntaxError("the design is not a text file (it contains NUL bytes)", file=file)
+    _check_size_and_nesting(text, file)
     try:
         tree = _parser().parse(text)
     except lark.exceptions.LarkError as exc:
