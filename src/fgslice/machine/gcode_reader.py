@@ -139,7 +139,7 @@ class GcodeProgram:
         return colors[self.state]
 
 
-CHUNK_LINES = 1 << 18
+CHUNK_LINES = 1 << 16
 _BLOCK_BYTES = 8 << 20
 _BINARY_PROBE = 65536
 

@@ -23,7 +23,7 @@
   it lacks; ``M42`` values outside 0..255.
 
 Consecutive faulty moves of one kind are reported once, at the first line, with the
-number of moves and the last line.
+number of moves and the last line (also when the run spans chunks of a streamed file).
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from fgslice.machine.gcode_reader import MIX_LETTERS, Fault, GcodeProgram, read_gcode
+from fgslice.machine.gcode_reader import CHUNK_LINES, MIX_LETTERS, Fault, GcodeProgram, iter_gcode
 from fgslice.settings import Settings
 
 BED_TOLERANCE_MM = 0.1
@@ -41,87 +41,138 @@ PRIME_ALLOWANCE_MM = 10.0
 MIX_SUM_TOLERANCE = 0.002
 
 
-def _report_runs(program: GcodeProgram, bad: np.ndarray, describe: Callable[[int], str]) -> list[Fault]:
-    """One fault per run of consecutive bad moves; ``describe(i)`` words the first move ``i``."""
-    idx = np.flatnonzero(bad)
-    if not len(idx):
-        return []
-    breaks = np.flatnonzero(np.diff(idx) > 1)
-    firsts = idx[np.concatenate([[0], breaks + 1])]
-    lasts = idx[np.concatenate([breaks, [len(idx) - 1]])]
-    faults = []
-    for first, last in zip(firsts.tolist(), lasts.tolist()):
-        message = describe(first)
-        if last > first:
-            message += f" ({last - first + 1} moves, to line {program.line[last]})"
-        faults.append(Fault(int(program.line[first]), message))
-    return faults
+class _Runs:
+    """Runs of consecutive bad moves of one kind, reported once each at the first line with
+    the number of moves and the last line; a run open at the end of a chunk continues into
+    the next."""
+
+    def __init__(self) -> None:
+        self.faults: list[Fault] = []
+        self.open: list | None = None  # [first line, message, moves, last line]
+
+    def add(self, program: GcodeProgram, bad: np.ndarray, describe: Callable[[int], str]) -> None:
+        """Add a chunk's bad moves; ``describe(i)`` words the first move ``i`` of a run."""
+        idx = np.flatnonzero(bad)
+        if not len(idx):
+            if len(bad):
+                self._close()
+            return
+        breaks = np.flatnonzero(np.diff(idx) > 1)
+        firsts = idx[np.concatenate([[0], breaks + 1])]
+        lasts = idx[np.concatenate([breaks, [len(idx) - 1]])]
+        for first, last in zip(firsts.tolist(), lasts.tolist()):
+            if self.open is not None and first == 0:
+                self.open[2] += last + 1
+            else:
+                self._close()
+                self.open = [int(program.line[first]), describe(first), last - first + 1, 0]
+            self.open[3] = int(program.line[last])
+        if lasts[-1] < len(bad) - 1:
+            self._close()
+
+    def _close(self) -> None:
+        if self.open is not None:
+            line, message, count, last = self.open
+            if count > 1:
+                message += f" ({count} moves, to line {last})"
+            self.faults.append(Fault(line, message))
+            self.open = None
+
+    def finish(self) -> list[Fault]:
+        """All runs, the open one closed."""
+        self._close()
+        return self.faults
 
 
-def _check_volume(program: GcodeProgram, settings: Settings) -> list[Fault]:
-    limits = np.array([settings.bed_x, settings.bed_y, settings.max_z])
-    bad = ((program.end < -BED_TOLERANCE_MM) | (program.end > limits + BED_TOLERANCE_MM)).any(axis=1)
+class _Verifier:
+    """The checks, fed one chunk of a program at a time; carries the open fault runs and
+    each nozzle's heated temperature (degC) and the active tool between chunks."""
 
-    def describe(i: int) -> str:
-        x, y, z = program.end[i]
-        return (f"move to X{x:.3f} Y{y:.3f} Z{z:.3f} leaves the build volume "
-                f"{settings.bed_x:g} x {settings.bed_y:g} x {settings.max_z:g} mm")
+    def __init__(self, settings: Settings) -> None:
+        self.settings = settings
+        self.read_faults: list[Fault] = []
+        self.event_faults: list[Fault] = []
+        self.volume, self.too_wide, self.blob, self.cold = _Runs(), _Runs(), _Runs(), _Runs()
+        self.reached: dict[int, float] = {}
+        self.tool = 0
 
-    return _report_runs(program, bad, describe)
+    def add(self, program: GcodeProgram) -> None:
+        self.read_faults += program.faults
+        self._check_volume(program)
+        self._check_extrusion(program)
+        self._check_heating(program)
+        self.event_faults += _check_events(program, self.settings)
 
+    def faults(self) -> list[Fault]:
+        """All faults by line (at one line: reading, volume, extrusion, heating, events)."""
+        faults = self.read_faults + self.volume.finish() + self.too_wide.finish() + self.blob.finish()
+        faults += self.cold.finish() + self.event_faults
+        return sorted(faults, key=lambda f: f.line)
 
-def _check_extrusion(program: GcodeProgram, settings: Settings) -> list[Fault]:
-    area = np.pi * settings.filament_diameter**2 / 4.0
-    moving = program.length > 0
-    section = np.zeros(len(program.e))
-    section[moving] = program.e[moving] * area / program.length[moving]
-    too_wide = moving & (section > settings.max_cross_section_mm2)
-    allowance = PRIME_ALLOWANCE_MM + settings.retract_length
-    blob = ~moving & (program.e > allowance)
-    faults = _report_runs(
-        program, too_wide,
-        lambda i: (f"extrudes {section[i]:.3f} mm^2 per mm of travel "
-                   f"(max_cross_section_mm2 = {settings.max_cross_section_mm2:g})"),
-    )
-    faults += _report_runs(
-        program, blob,
-        lambda i: f"extrudes {program.e[i]:.3f} mm of filament without XY motion (allowance {allowance:g} mm)",
-    )
-    return faults
+    def _check_volume(self, program: GcodeProgram) -> None:
+        settings = self.settings
+        limits = np.array([settings.bed_x, settings.bed_y, settings.max_z])
+        bad = ((program.end < -BED_TOLERANCE_MM) | (program.end > limits + BED_TOLERANCE_MM)).any(axis=1)
 
+        def describe(i: int) -> str:
+            x, y, z = program.end[i]
+            return (f"move to X{x:.3f} Y{y:.3f} Z{z:.3f} leaves the build volume "
+                    f"{settings.bed_x:g} x {settings.bed_y:g} x {settings.max_z:g} mm")
 
-def _heated_timeline(program: GcodeProgram) -> tuple[np.ndarray, np.ndarray]:
-    """Lines where the active nozzle's heated temperature changes, and that temperature."""
-    events = [(t.line, 0, t) for t in program.temperatures if t.tool >= 0]
-    events += [(t.line, 1, t) for t in program.tools]
-    events.sort(key=lambda item: (item[0], item[1]))
-    reached: dict[int, float] = {}
-    tool = 0
-    lines, values = [], []
-    for line, kind, event in events:
-        if kind == 1:
-            tool = int(event.values["T"])
-        elif event.wait:
-            reached[event.tool] = event.target
-        else:
-            reached[event.tool] = min(reached.get(event.tool, 0.0), event.target)
-        lines.append(line)
-        values.append(reached.get(tool, 0.0))
-    return np.array(lines, dtype=np.int64), np.array(values, dtype=float)
+        self.volume.add(program, bad, describe)
 
+    def _check_extrusion(self, program: GcodeProgram) -> None:
+        settings = self.settings
+        area = np.pi * settings.filament_diameter**2 / 4.0
+        moving = program.length > 0
+        section = np.zeros(len(program.e))
+        section[moving] = program.e[moving] * area / program.length[moving]
+        too_wide = moving & (section > settings.max_cross_section_mm2)
+        allowance = PRIME_ALLOWANCE_MM + settings.retract_length
+        blob = ~moving & (program.e > allowance)
+        self.too_wide.add(
+            program, too_wide,
+            lambda i: (f"extrudes {section[i]:.3f} mm^2 per mm of travel "
+                       f"(max_cross_section_mm2 = {settings.max_cross_section_mm2:g})"),
+        )
+        self.blob.add(
+            program, blob,
+            lambda i: f"extrudes {program.e[i]:.3f} mm of filament without XY motion (allowance {allowance:g} mm)",
+        )
 
-def _check_heating(program: GcodeProgram, settings: Settings) -> list[Fault]:
-    if settings.min_extrude_temperature <= 0:
-        return []
-    lines, values = _heated_timeline(program)
-    at = np.searchsorted(lines, program.line, side="right") - 1
-    heated = np.concatenate([[0.0], values])[at + 1]
-    bad = (program.e > 0) & (heated < settings.min_extrude_temperature)
-    return _report_runs(
-        program, bad,
-        lambda i: (f"extrudes with the nozzle at {heated[i]:g} C, below min_extrude_temperature "
-                   f"{settings.min_extrude_temperature:g} C (heat with M109 first)"),
-    )
+    def _heated_timeline(self, program: GcodeProgram) -> tuple[np.ndarray, np.ndarray]:
+        """Lines of the chunk where the active nozzle's heated temperature changes, and that
+        temperature; advances the carried state to the chunk's end."""
+        events = [(t.line, 0, t) for t in program.temperatures if t.tool >= 0]
+        events += [(t.line, 1, t) for t in program.tools]
+        events.sort(key=lambda item: (item[0], item[1]))
+        reached = self.reached
+        lines, values = [], []
+        for line, kind, event in events:
+            if kind == 1:
+                self.tool = int(event.values["T"])
+            elif event.wait:
+                reached[event.tool] = event.target
+            else:
+                reached[event.tool] = min(reached.get(event.tool, 0.0), event.target)
+            lines.append(line)
+            values.append(reached.get(self.tool, 0.0))
+        return np.array(lines, dtype=np.int64), np.array(values, dtype=float)
+
+    def _check_heating(self, program: GcodeProgram) -> None:
+        minimum = self.settings.min_extrude_temperature
+        if minimum <= 0:
+            return
+        before = self.reached.get(self.tool, 0.0)
+        lines, values = self._heated_timeline(program)
+        at = np.searchsorted(lines, program.line, side="right") - 1
+        heated = np.concatenate([[before], values])[at + 1]
+        bad = (program.e > 0) & (heated < minimum)
+        self.cold.add(
+            program, bad,
+            lambda i: (f"extrudes with the nozzle at {heated[i]:g} C, below min_extrude_temperature "
+                       f"{minimum:g} C (heat with M109 first)"),
+        )
 
 
 def _check_events(program: GcodeProgram, settings: Settings) -> list[Fault]:
@@ -174,19 +225,24 @@ def _mix_faults(line: int, command: str, values: dict[str, float], channels: int
     return faults
 
 
-def verify_gcode(program_or_path: GcodeProgram | str | os.PathLike, settings: Settings) -> list[Fault]:
+def verify_gcode(program_or_path: GcodeProgram | str | os.PathLike, settings: Settings, *,
+                 chunk_lines: int = CHUNK_LINES) -> list[Fault]:
     """All faults of a G-code program (or file, or text) against ``settings``, by line.
+
+    A file or text is read and checked in chunks of ``chunk_lines`` lines
+    (:func:`.gcode_reader.iter_gcode`), so memory stays bounded whatever its length; the
+    faults are the same as for the whole program.
 
     Raises:
         GcodeError: the file cannot be read as G-code.
     """
-    program = program_or_path if isinstance(program_or_path, GcodeProgram) else read_gcode(program_or_path)
-    faults = list(program.faults)
-    faults += _check_volume(program, settings)
-    faults += _check_extrusion(program, settings)
-    faults += _check_heating(program, settings)
-    faults += _check_events(program, settings)
-    return sorted(faults, key=lambda f: f.line)
+    verifier = _Verifier(settings)
+    if isinstance(program_or_path, GcodeProgram):
+        verifier.add(program_or_path)
+    else:
+        for chunk in iter_gcode(program_or_path, chunk_lines=chunk_lines):
+            verifier.add(chunk)
+    return verifier.faults()
 
 
 def format_faults(faults: list[Fault], limit: int = 50) -> str:
