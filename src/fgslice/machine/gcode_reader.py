@@ -4,6 +4,9 @@
 (start and end position in mm, filament length E in mm, feed rate in mm/min, line number,
 layer, role, process state, bead width) plus the events ``verify`` needs (temperature
 set points, tool selects, flow and mix commands, fan and PWM outputs).
+:func:`iter_gcode` yields the same program in chunks of whole lines (global line
+numbers, state carried from chunk to chunk) so that long files are processed in
+bounded memory; :func:`read_gcode` joins its chunks.
 
 Understood: ``G0``/``G1`` (X Y Z E F), ``G2``/``G3`` arcs (I J or R; their XY length is
 the arc's), ``G28`` (homed axes go to 0), ``G90``/``G91`` (absolute/relative XYZ and
