@@ -19,9 +19,10 @@ at a time (nothing of earlier layers is kept), then a footer. Conventions:
   ``retract_min_travel`` and at layer changes, un-retraction after the travel; with
   ``z_hop`` > 0 retracted travels are lifted by ``z_hop``.
 
-Moves are formatted in bulk: the digits of every number of a layer are computed with
-integer numpy arithmetic into one byte matrix (see :func:`format_moves`), so no Python
-object is made per vertex.
+Moves are formatted in bulk: every number of a layer is split into groups of three
+integer digits and its decimals, each looked up in a byte table, into one byte matrix whose
+unprinted bytes are 0 and dropped at once (see :func:`format_lines`), so no Python object
+is made per vertex.
 
 The statistics returned by :meth:`GcodeWriter.finish` are documented in ``docs/gcode.md``.
 The time estimate is the sum of move lengths divided by their feed rates (no
