@@ -97,6 +97,7 @@ class _Verifier:
         self.tool = 0
 
     def add(self, program: GcodeProgram) -> None:
+        """Check the next chunk (or a whole program)."""
         self.read_faults += program.faults
         self._check_volume(program)
         self._check_extrusion(program)
