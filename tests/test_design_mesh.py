@@ -158,3 +158,77 @@ def test_benchy_sections_match_trimesh(benchy_path):
         assert geometry.section(zs[k]).equals_exact(sections[k], 0.0)
     volume = sum(s.area for s in sections) * 0.2
     assert volume == pytest.approx(abs(geometry._mesh.volume), rel=0.01)
+
+
+def _shells(*meshes: trimesh.Trimesh) -> MeshGeometry:
+    """One mesh holding all the given shells as they are (no boolean), like a multi-body STL."""
+    return MeshGeometry(trimesh.util.concatenate(list(meshes)))
+
+
+def _inverted(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """The same shell with every triangle wound the other way (normals pointing inwards)."""
+    return trimesh.Trimesh(mesh.vertices, mesh.faces[:, ::-1], process=False)
+
+
+def _box(size, centre=(0.0, 0.0, 0.0)) -> trimesh.Trimesh:
+    return trimesh.creation.box(extents=size).apply_translation(centre)
+
+
+@pytest.mark.parametrize(
+    "a, b",
+    [
+        (((20, 10, 2), (0, 0, 0)), ((10, 20, 2), (0, 0, 0))),  # a cross: no corner of one inside the other
+        (((10, 10, 2), (0, 0, 0)), ((10, 10, 2), (5, 5, 0))),  # a corner of each inside the other
+    ],
+    ids=["cross", "offset squares"],
+)
+def test_overlapping_shells_slice_as_their_union(a, b):
+    geometry = _shells(_box(*a), _box(*b))
+    expected = shapely.union(*(shapely.box(c[0] - s[0] / 2, c[1] - s[1] / 2, c[0] + s[0] / 2, c[1] + s[1] / 2) for s, c in (a, b)))
+    sections = geometry.sections([-0.5, 0.3])
+    for section in sections:
+        assert section.is_valid
+        assert section.area == pytest.approx(expected.area, rel=1e-12)
+        assert shapely.symmetric_difference(section, expected).area < 1e-9
+        assert all(shapely.is_ccw(p.exterior) for p in section.geoms)
+    assert geometry.section(0.3).equals_exact(sections[1], 0.0)
+
+
+def test_shell_inside_a_shell_fills_and_inverted_shell_is_solid():
+    outer, inner = _box((10, 10, 10)), _box((4, 4, 4))
+    assert _shells(outer, inner).section(0.5).area == pytest.approx(100.0)
+    assert MeshGeometry(_inverted(outer)).section(0.5).area == pytest.approx(100.0)
+
+
+@pytest.mark.parametrize("kind", ["box", "sphere"])
+def test_inward_facing_inner_shell_stays_a_hole(kind):
+    if kind == "box":
+        outer, inner = _box((10, 10, 10)), _box((4, 6, 4), (1, 0, 0))
+    else:
+        outer, inner = trimesh.creation.icosphere(3, radius=5.0), trimesh.creation.icosphere(3, radius=3.0)
+    mesh = trimesh.util.concatenate([outer, _inverted(inner)])
+    geometry = MeshGeometry(mesh)
+    for z in (-1.3, 0.2, 1.7):
+        section = geometry.section(z)
+        (polygon,) = section.geoms
+        assert len(polygon.interiors) == 1
+        assert section.area == pytest.approx(_reference_area(mesh, z), rel=1e-9)
+    assert geometry.section(4.0).area == pytest.approx(_reference_area(mesh, 4.0), rel=1e-9)
+
+
+def test_tube_crossed_by_a_bar_keeps_the_rest_of_its_hole():
+    tube = trimesh.creation.annulus(r_min=3.0, r_max=6.0, height=4.0, sections=48)
+    section = _shells(tube, _box((14, 2, 2))).section(0.25)
+    expected = shapely.union(MeshGeometry(tube).section(0.25), shapely.box(-7, -1, 7, 1))
+    assert section.is_valid
+    assert shapely.symmetric_difference(section, expected).area < 1e-9
+    assert sum(len(p.interiors) for p in section.geoms) == 2
+    assert section.contains(shapely.Point(0, 0)) and not section.intersects(shapely.Point(0, 2))
+
+
+def test_inner_shell_with_a_missing_face_falls_back_to_even_odd():
+    inner = _inverted(_box((4, 4, 4)))
+    inner.update_faces(np.flatnonzero(inner.face_normals[:, 0] < 0.5))
+    geometry = _shells(_box((10, 10, 10)), inner)
+    section = geometry.section(0.5)
+    assert section.area == pytest.approx(100.0 - 16.0)

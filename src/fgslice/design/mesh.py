@@ -15,10 +15,16 @@ the two points where the plane cuts its edges. Conventions and robustness rules:
   index. Ends left open (holes in a non-watertight mesh) are joined to the nearest other
   open end of the same plane when both are each other's nearest and closer than
   ``gap_tolerance``; chains still open after that are closed directly.
-* Loops with fewer than three points or (almost) zero area are dropped. The region is
-  built with even-odd semantics: a loop enclosed by an odd number of others is a hole
-  of the innermost loop around it. An invalid result (self-intersecting or overlapping
-  shells) goes through ``shapely.make_valid`` and is reduced to its polygons.
+* Segments are directed by their triangle's winding, so each loop has an orientation:
+  counter-clockwise around solid for an outward-wound shell. Loops with fewer than
+  three points or (almost) zero area are dropped. The region is filled with the
+  nonzero winding rule, as slicers do: overlapping shells (separate bodies exported
+  into one file) give their union, an inward-wound inner shell (a hollow part) a hole.
+  A loop whose orientation cannot be trusted (an open chain closed directly, or one
+  mixing directions) falls back to even-odd: it toggles between solid and empty.
+  Planes with touching or crossing loops are filled from the faces of the noded
+  loops; a remaining invalid result (a self-intersecting loop) goes through
+  ``shapely.make_valid`` and is reduced to its polygons.
 * Outer rings are counter-clockwise, holes clockwise.
 
 The signed distance (negative inside) is the exact distance to the nearest triangle
@@ -202,8 +208,8 @@ class MeshGeometry:
         segments = _plane_segments(self._vertices, self._faces, self._edges, self._face_edges, face, z_sorted[plane])
         node_ids, points = segments
         node_ids = node_ids + (plane[:, None] - begin) * len(self._edges)
-        rings, ring_plane = _stitch(node_ids, points, plane - begin, self.gap_tolerance)
-        return _assemble(rings, ring_plane, end - begin)
+        rings, ring_plane, ring_direction = _stitch(node_ids, points, plane - begin, self.gap_tolerance)
+        return _assemble(rings, ring_plane, ring_direction, end - begin)
 
     def sdf(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
         """Signed distance (mm) to the surface, negative inside; shape of the broadcast."""
@@ -252,10 +258,16 @@ def _plane_segments(vertices, faces, edges, face_edges, face, z):
     Returns ``(edge_ids, points)``: shapes (M, 2) and (M, 2, 2) — for both ends of each
     segment, the unique edge it lies on and its XY position. The position is computed
     from the edge's canonical vertex order, so both faces of an edge agree bit for bit.
+
+    Segments are directed by the triangle's winding: they start on the edge the winding
+    crosses downwards (v_j above, v_j+1 below) and end on the one it crosses upwards.
+    That is the direction ``z x n`` for the triangle normal ``n``, so an outward-wound
+    shell gives counter-clockwise loops (seen from +z) around solid and clockwise ones
+    around holes.
     """
     above = vertices[faces[face], 2] >= z[:, None]
-    crossing = above != np.roll(above, -1, axis=1)
-    which = np.nonzero(crossing)[1].reshape(-1, 2)
+    above_next = np.roll(above, -1, axis=1)
+    which = np.column_stack([np.argmax(above & ~above_next, axis=1), np.argmax(above_next & ~above, axis=1)])
     edge_ids = face_edges[face[:, None], which]
     ends = edges[edge_ids]
     a = vertices[ends[..., 0]]
@@ -271,9 +283,14 @@ def _stitch(node_ids: np.ndarray, points: np.ndarray, plane: np.ndarray, gap_tol
     ``node_ids`` (M, 2) identify each segment end (equal ids = same point), ``points``
     (M, 2, 2) are their positions, ``plane`` (M,) their plane. Ends are handled as
     half-ends ``h = 2 * segment + end``; a walk enters a segment at ``h``, leaves at
-    ``h ^ 1`` and continues at that end's mate. Returns ``(rings, ring_plane)`` where
+    ``h ^ 1`` and continues at that end's mate. Returns ``(rings, ring_plane, ring_direction)`` where
     ``rings = (ring_index, coords, ring_size)``: the ring of each point (ascending),
     the (P, 2) points in ring order and the number of points of each ring.
+
+    ``ring_direction`` (one per ring) tells whether a ring's point order follows its
+    segments' directions (+1), runs against all of them (-1) or cannot be trusted (0):
+    the ring is an open chain closed directly, or it mixes both (non-manifold pairing,
+    or open ends joined across a gap with opposite directions).
     """
     n_half = node_ids.size
     nodes = node_ids.ravel()
@@ -316,7 +333,11 @@ def _stitch(node_ids: np.ndarray, points: np.ndarray, plane: np.ndarray, gap_tol
     coords = coords[order]
     uniq, ring_index, ring_size = np.unique(ring_label, return_inverse=True, return_counts=True)
     ring_plane = half_plane[comp_min[uniq]]
-    return (ring_index, coords, ring_size), ring_plane
+    entered = np.bincount(label[kept], minlength=n_comp)[uniq]
+    backward = np.bincount(label[kept], weights=kept % 2, minlength=n_comp)[uniq]
+    ring_direction = np.where(backward == 0, 1, np.where(backward == entered, -1, 0)).astype(np.int8)
+    ring_direction[comp_open[uniq]] = 0
+    return (ring_index, coords, ring_size), ring_plane, ring_direction
 
 
 def _pair_equal(nodes: np.ndarray) -> np.ndarray:
@@ -369,8 +390,16 @@ def _distance_to_tail(succ: np.ndarray) -> np.ndarray:
     return dist
 
 
-def _assemble(rings, ring_plane: np.ndarray, n_planes: int) -> np.ndarray:
-    """Even-odd regions of each plane's rings: an object array of MultiPolygons."""
+def _assemble(rings, ring_plane: np.ndarray, ring_direction: np.ndarray, n_planes: int) -> np.ndarray:
+    """Nonzero-winding regions of each plane's rings: an object array of MultiPolygons.
+
+    A ring counts +1 around the points it encloses when its mesh direction is
+    counter-clockwise, -1 when clockwise; a point is solid where the sum is not zero.
+    An untrusted ring (direction 0) falls back to even-odd: it toggles between solid
+    and empty. Planes whose rings never touch are filled from the nesting tree of the
+    rings; planes with touching or crossing rings (overlapping shells) from the faces of
+    their noded rings (:func:`_fill_crossing`).
+    """
     ring_index, coords, ring_size = rings
     out = np.array([shapely.MultiPolygon() for _ in range(n_planes)], dtype=object)
     usable = ring_size >= 3
@@ -380,40 +409,93 @@ def _assemble(rings, ring_plane: np.ndarray, n_planes: int) -> np.ndarray:
     new_index = np.cumsum(usable) - 1
     ring_index = new_index[ring_index[keep_point]]
     coords = coords[keep_point]
-    ring_plane = ring_plane[usable]
+    ring_plane, ring_direction = ring_plane[usable], ring_direction[usable]
     polygons = shapely.polygons(shapely.linearrings(coords, indices=ring_index))
     solid = np.abs(shapely.area(polygons)) > _MIN_LOOP_AREA
-    polygons, ring_plane = polygons[solid], ring_plane[solid]
+    polygons, ring_plane, ring_direction = polygons[solid], ring_plane[solid], ring_direction[solid]
     if len(polygons) == 0:
         return out
-    parent, depth = _nesting(polygons, ring_plane)
-    shell = depth % 2 == 0
-    is_hole = ~shell & (parent >= 0)
-    is_hole[is_hole] = shell[parent[is_hole]]
-    group = np.where(is_hole, parent, np.arange(len(polygons)))
-    order = np.lexsort((is_hole, group, ring_plane))
-    new_group = np.r_[True, group[order][1:] != group[order][:-1]]
-    group_index = np.cumsum(new_group) - 1
-    regions = shapely.polygons(shapely.get_exterior_ring(polygons[order]), indices=group_index)
-    region_plane = ring_plane[order][new_group]
-    shapely.multipolygons(regions, indices=region_plane, out=out)
+    exteriors = shapely.get_exterior_ring(polygons)
+    winding = np.where(shapely.is_ccw(exteriors), ring_direction, -ring_direction)
+    shifted, offsets = _side_by_side(polygons, ring_plane)
+    crossing = _planes_with_touching_rings(shifted, ring_plane, n_planes)
+    nested = ~crossing[ring_plane]
+    if nested.any():
+        ids = np.flatnonzero(nested)
+        _fill_nested(out, polygons[ids], shifted[ids], offsets[ids], ring_plane[ids], winding[ids])
+    for plane in np.flatnonzero(crossing):
+        ids = np.flatnonzero(ring_plane == plane)
+        out[plane] = _fill_crossing(exteriors[ids], polygons[ids], winding[ids])
     bad = np.flatnonzero(~shapely.is_valid(out))
     for i in bad:
         out[i] = _polygonal(shapely.make_valid(out[i]))
     return shapely.orient_polygons(out)
 
 
-def _nesting(polygons: np.ndarray, plane: np.ndarray):
-    """Innermost enclosing ring (or -1) and enclosure depth of each ring, within its plane.
-
-    Planes are laid side by side along x so one spatial index serves them all; a ring
-    is inside another when its first vertex lies in the other's interior.
-    """
+def _side_by_side(polygons: np.ndarray, plane: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Polygons moved along x by their plane times a width, so planes never overlap; and the (N, 2) offsets."""
     bounds = shapely.total_bounds(polygons)
     width = (bounds[2] - bounds[0]) * 2 + 1.0
     offsets = np.column_stack([plane * width, np.zeros(len(plane))])
     per_coordinate = np.repeat(offsets, shapely.get_num_coordinates(polygons), axis=0)
-    shifted = shapely.transform(polygons, lambda coords: coords + per_coordinate)
+    return shapely.transform(polygons, lambda xy: xy + per_coordinate), offsets
+
+
+def _planes_with_touching_rings(shifted: np.ndarray, plane: np.ndarray, n_planes: int) -> np.ndarray:
+    """(n_planes,) bool: the plane holds two rings that touch or cross (``shifted`` from :func:`_side_by_side`)."""
+    boundaries = shapely.get_exterior_ring(shifted)
+    first, second = shapely.STRtree(boundaries).query(boundaries, predicate="intersects")
+    touching = np.zeros(n_planes, dtype=bool)
+    touching[plane[first[first != second]]] = True
+    return touching
+
+
+def _fill_nested(out, polygons, shifted, offsets, plane, winding) -> None:
+    """Fill ``out`` with the regions of planes whose rings are disjoint (so properly nested).
+
+    Walking the nesting tree from the outside in, the winding number just outside a
+    ring is the one just inside its parent. A ring bounds the region where exactly one
+    side of it is solid: an outer ring when its inside is solid, else a hole of the
+    nearest enclosing outer ring.
+    """
+    parent, depth = _nesting(polygons, shifted, offsets)
+    n = len(polygons)
+    w_out = np.zeros(n, dtype=np.int64)
+    w_in = np.zeros(n, dtype=np.int64)
+    outer = np.zeros(n, dtype=bool)
+    owner = np.full(n, -1)
+    for level in np.unique(depth):
+        ids = np.flatnonzero(depth == level)
+        up = parent[ids]
+        has_parent = up >= 0
+        w_out[ids] = np.where(has_parent, w_in[up], 0)
+        toggle = np.where(w_out[ids] == 0, 1, -w_out[ids])
+        w_in[ids] = w_out[ids] + np.where(winding[ids] != 0, winding[ids], toggle)
+        outer[ids] = (w_in[ids] != 0) & (w_out[ids] == 0)
+        owner[ids] = np.where(has_parent, np.where(outer[up], up, owner[up]), -1)
+    hole = (w_in == 0) & (w_out != 0)
+    kept = np.flatnonzero(outer | hole)
+    if len(kept) == 0:
+        return
+    is_hole = hole[kept]
+    group = np.where(is_hole, owner[kept], kept)
+    order = np.lexsort((is_hole, group, plane[kept]))
+    kept, group = kept[order], group[order]
+    new_group = np.r_[True, group[1:] != group[:-1]]
+    group_index = np.cumsum(new_group) - 1
+    regions = shapely.polygons(shapely.get_exterior_ring(polygons[kept]), indices=group_index)
+    region_plane = plane[kept][new_group]
+    planes = np.unique(region_plane)
+    out[planes] = shapely.multipolygons(regions, indices=np.searchsorted(planes, region_plane))
+
+
+def _nesting(polygons: np.ndarray, shifted: np.ndarray, offsets: np.ndarray):
+    """Innermost enclosing ring (or -1) and enclosure depth of each ring, within its plane.
+
+    ``shifted`` and ``offsets`` come from :func:`_side_by_side`, so one spatial index
+    serves all planes; a ring is inside another when its first vertex lies in the
+    other's interior.
+    """
     first = shapely.get_point(shapely.get_exterior_ring(polygons), 0)
     probe = shapely.points(shapely.get_coordinates(first) + offsets)
     inner, outer = shapely.STRtree(shifted).query(probe, predicate="within")
@@ -424,6 +506,24 @@ def _nesting(polygons: np.ndarray, plane: np.ndarray):
     last = np.r_[inner[1:] != inner[:-1], True][: len(inner)]
     parent[inner[last]] = outer[last]
     return parent, depth
+
+
+def _fill_crossing(rings: np.ndarray, polygons: np.ndarray, winding: np.ndarray) -> shapely.MultiPolygon:
+    """The solid region of one plane whose rings touch or cross.
+
+    The rings are noded and polygonized into faces; a face is solid when the winding
+    number of an interior point over the trusted rings is not zero, XOR the point lies
+    in an odd number of untrusted rings. Solid faces are merged (they form a coverage).
+    """
+    faces = shapely.get_parts(shapely.polygonize(shapely.get_parts(shapely.node(shapely.multilinestrings(rings)))))
+    if len(faces) == 0:
+        return shapely.MultiPolygon()
+    probes = shapely.point_on_surface(faces)
+    face, ring = shapely.STRtree(polygons).query(probes, predicate="within")
+    number = np.bincount(face, weights=winding[ring], minlength=len(faces))
+    untrusted = np.bincount(face, weights=winding[ring] == 0, minlength=len(faces))
+    solid = (number != 0) ^ (untrusted % 2 == 1)
+    return _polygonal(shapely.coverage_union_all(faces[solid]))
 
 
 def _polygonal(geometry: shapely.Geometry) -> shapely.MultiPolygon:
