@@ -55,8 +55,6 @@ def test_non_watertight_benchy_slab_slices(benchy_path, tmp_path):
     assert extruded_mm3(program) == pytest.approx(section.area * 1.0, rel=0.1)
 
 
-@pytest.mark.xfail(strict=True, reason="mesh sections fill overlapping shells even-odd: the overlap of the two "
-                   "boxes becomes a hole (200 of 300 mm^2 printed)")
 def test_self_intersecting_mesh_slices_as_the_union(tmp_path):
     a = trimesh.creation.box((20, 10, 2))
     b = trimesh.creation.box((10, 20, 2))
