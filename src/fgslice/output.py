@@ -54,14 +54,12 @@ def atomic_output(path: str | Path, mode: str = "w") -> Iterator[IO]:
     ``OSError`` while writing (a full disk, say) becomes :class:`OutputError`.
     """
     target = Path(path)
-    try:
-        fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=target.resolve().parent)
-    except OSError as exc:
-        raise _output_error(target, exc) from None
-    os.close(fd)
-    tmp = Path(tmp_name)
+    tmp: Path | None = None
     text = "b" not in mode
     try:
+        fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=target.resolve().parent)
+        tmp = Path(tmp_name)
+        os.close(fd)
         with open(tmp, mode, encoding="utf-8" if text else None, newline="\n" if text else None) as handle:
             yield handle
             handle.flush()
@@ -69,9 +67,20 @@ def atomic_output(path: str | Path, mode: str = "w") -> Iterator[IO]:
         os.chmod(tmp, 0o644)
         os.replace(tmp, target)
     except OSError as exc:
-        tmp.unlink(missing_ok=True)
+        _discard(tmp)
         raise _output_error(target, exc) from None
     except BaseException:
+        _discard(tmp)
+        raise
+
+
+def _discard(tmp: Path | None) -> None:
+    """Remove the temporary file, even if a second Ctrl-C arrives meanwhile."""
+    if tmp is None:
+        return
+    try:
+        tmp.unlink(missing_ok=True)
+    except KeyboardInterrupt:
         tmp.unlink(missing_ok=True)
         raise
 
