@@ -232,3 +232,16 @@ def test_inner_shell_with_a_missing_face_falls_back_to_even_odd():
     geometry = _shells(_box((10, 10, 10)), inner)
     section = geometry.section(0.5)
     assert section.area == pytest.approx(100.0 - 16.0)
+
+
+@pytest.mark.parametrize("centres", [[(-5, 0, 0), (5, 0, 0)], [(-5, -5, 0), (5, 5, 0)], [(-5, 0, 0), (5, 0, 0), (5, 10, 0)]], ids=["face", "edge", "L"])
+def test_bodies_touching_along_shared_edges_slice_as_their_union(tmp_path, centres):
+    # merged vertices make the shared edges non-manifold (four faces); the face order must not matter
+    path = _save(trimesh.util.concatenate([_box((10, 10, 2), c) for c in centres]), tmp_path / "touching.stl")
+    merged = load_mesh(path)._mesh
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        shuffled = trimesh.Trimesh(merged.vertices, merged.faces[rng.permutation(len(merged.faces))], process=False)
+        section = MeshGeometry(shuffled).section(0.3)
+        assert section.is_valid
+        assert section.area == pytest.approx(100.0 * len(centres), rel=1e-12)

@@ -11,8 +11,8 @@ the two points where the plane cuts its edges. Conventions and robustness rules:
   triangle sharing the vertex, so no segment is lost or doubled.
 * Segment ends are identified by the unique mesh edge they lie on; segments are stitched
   into loops through those ids (two segments per edge on a manifold mesh). At a
-  non-manifold edge (more than two faces) the segments are paired in order of their
-  index. Ends left open (holes in a non-watertight mesh) are joined to the nearest other
+  non-manifold edge (more than two faces) a segment's end is paired with
+  another segment's start (in order of index), so loops keep the triangles' winding. Ends left open (holes in a non-watertight mesh) are joined to the nearest other
   open end of the same plane when both are each other's nearest and closer than
   ``gap_tolerance``; chains still open after that are closed directly.
 * Segments are directed by their triangle's winding, so each loop has an orientation:
@@ -343,19 +343,34 @@ def _stitch(node_ids: np.ndarray, points: np.ndarray, plane: np.ndarray, gap_tol
 def _pair_equal(nodes: np.ndarray) -> np.ndarray:
     """Mate of each half-end: another one with the same node id, or -1.
 
-    Equal ids are paired in order of index (first with second, third with fourth...);
-    an odd one out stays unpaired.
+    Half-ends ``2s`` are segment starts, ``2s + 1`` segment ends. At each node the
+    starts are paired with the ends first (both in order of index), so that a walk
+    keeps following the segments' directions at non-manifold edges; starts or ends
+    left over are paired among themselves in order of index, an odd one out stays
+    unpaired.
     """
-    order = np.argsort(nodes, kind="stable")
+    n = len(nodes)
+    position = np.arange(n)
+    is_end = position % 2
+    order = np.argsort(nodes * 2 + is_end, kind="stable")
     sorted_nodes = nodes[order]
     run_start = np.r_[True, sorted_nodes[1:] != sorted_nodes[:-1]]
-    position = np.arange(len(nodes))
-    rank = position - np.maximum.accumulate(np.where(run_start, position, 0))
-    has_next = np.r_[sorted_nodes[1:] == sorted_nodes[:-1], False]
-    lead = np.flatnonzero((rank % 2 == 0) & has_next)
-    mate = np.full(len(nodes), -1)
-    mate[order[lead]] = order[lead + 1]
-    mate[order[lead + 1]] = order[lead]
+    first = np.maximum.accumulate(np.where(run_start, position, 0))
+    rank = position - first
+    run = np.cumsum(run_start) - 1
+    starts = np.bincount(run, weights=1 - is_end[order]).astype(np.int64)[run]
+    ends = np.bincount(run)[run] - starts
+    mixed = np.minimum(starts, ends)
+    start_side = rank < starts
+    within = np.where(start_side, rank, rank - starts)
+    partner = np.where(start_side, starts + rank, rank - starts)
+    left = within - mixed
+    left_count = np.where(start_side, starts, ends) - mixed
+    left_partner = rank + np.where(left % 2 == 0, 1, -1)
+    partner = np.where(within < mixed, partner, np.where((left ^ 1) < left_count, left_partner, -1))
+    paired = partner >= 0
+    mate = np.full(n, -1)
+    mate[order[paired]] = order[first[paired] + partner[paired]]
     return mate
 
 
