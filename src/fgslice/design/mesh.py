@@ -11,9 +11,10 @@ the two points where the plane cuts its edges. Conventions and robustness rules:
   triangle sharing the vertex, so no segment is lost or doubled.
 * Segment ends are identified by the unique mesh edge they lie on; segments are stitched
   into loops through those ids (two segments per edge on a manifold mesh). At a
-  non-manifold edge (more than two faces) a segment's end is paired with
-  another segment's start (in order of index), so loops keep the triangles' winding. Ends left open (holes in a non-watertight mesh) are joined to the nearest other
-  open end of the same plane when both are each other's nearest and closer than
+  non-manifold edge (more than two faces) a segment's end is paired with another
+  segment's start (in order of index), so loops keep the triangles' winding. Ends left
+  open (holes in a non-watertight mesh) are joined to the nearest other open end of
+  the same plane when both are each other's nearest and closer than
   ``gap_tolerance``; chains still open after that are closed directly.
 * Segments are directed by their triangle's winding, so each loop has an orientation:
   counter-clockwise around solid for an outward-wound shell. Loops with fewer than
