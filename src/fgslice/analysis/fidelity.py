@@ -11,6 +11,9 @@ Reading them: the mean error is the average distance (0-1) of the printed compos
 from the design; the 95th percentile shows the worst transitions (dead volume smears
 them); the share within half a palette bin tells how much of the part lands in the
 right color band; ΔE00 below about 1 is imperceptible, 2-10 noticeable at a glance.
+
+colour-science takes about two seconds to import (it loads matplotlib and scipy), so it
+is imported by the functions that compute colors, not with this module.
 """
 
 from __future__ import annotations
@@ -20,15 +23,12 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from collections.abc import Iterable, Sequence
 
-import colour
 import numpy as np
 
 from fgslice.analysis.simulate import SimulationResult, mixing_deposit
 from fgslice.colors import materials_rgba, srgb_to_linear
 from fgslice.design.base import Material
 from fgslice.errors import OutputError, SettingsError
-
-_D65 = colour.RGB_COLOURSPACES["sRGB"].whitepoint
 
 
 @dataclass(frozen=True)
@@ -86,14 +86,19 @@ def palette_bin_size(palette_size: int, n_materials: int) -> float:
 
 def mixture_lab(fractions: np.ndarray, materials: Sequence[Material]) -> np.ndarray:
     """CIELAB (D65) of compositions ``(..., k)`` mixed linearly in linear-sRGB, ``(..., 3)``."""
+    import colour
+
+    srgb = colour.RGB_COLOURSPACES["sRGB"]
     linear = srgb_to_linear(materials_rgba(materials)[:, :3])
     # linear-sRGB -> XYZ is a matrix, so mixing the materials' XYZ is fgslice.colors.mix_linear
-    xyz_materials = colour.RGB_to_XYZ(linear, colour.RGB_COLOURSPACES["sRGB"], apply_cctf_decoding=False)
-    return colour.XYZ_to_Lab(np.asarray(fractions, dtype=float) @ xyz_materials, _D65)
+    xyz_materials = colour.RGB_to_XYZ(linear, srgb, apply_cctf_decoding=False)
+    return colour.XYZ_to_Lab(np.asarray(fractions, dtype=float) @ xyz_materials, srgb.whitepoint)
 
 
 def delta_e_2000(lab_1: np.ndarray, lab_2: np.ndarray) -> np.ndarray:
     """CIEDE2000 difference between CIELAB arrays (colour-science's implementation)."""
+    import colour
+
     return np.asarray(colour.delta_E(lab_1, lab_2, method="CIE 2000"))
 
 
