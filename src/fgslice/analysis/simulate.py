@@ -44,14 +44,42 @@ _MAX_DECAY = 40.0
 _BLOCK_DECAY = 500.0
 
 
+def _lag_start(decay: np.ndarray, u2: np.ndarray, y0: np.ndarray) -> np.ndarray:
+    """State of ``dy/ds = (u - y)`` at the start of each interval.
+
+    ``decay`` ``(m,)`` are the interval lengths in units of the constant, ``u2``
+    ``(m, k)`` the constant inputs, ``y0`` ``(k,)`` the state before the first interval.
+    A prefix sum per block of bounded decay (at most ``total decay / 500`` blocks), so
+    the cost is linear in ``m``.
+    """
+    xc = np.minimum(decay, _MAX_DECAY)
+    e_end = np.cumsum(xc)
+    e_start = e_end - xc
+    block = (e_start // _BLOCK_DECAY).astype(np.int64)
+    first = np.flatnonzero(np.r_[True, block[1:] != block[:-1]])
+    bounds = np.r_[first, len(decay)]
+    rel_end = e_end - np.repeat(e_start[first], np.diff(bounds))
+    terms = (-np.expm1(-xc) * np.exp(rel_end))[:, None] * u2
+    sums = np.empty_like(terms)
+    for lo, hi in zip(bounds[:-1], bounds[1:]):
+        np.cumsum(terms[lo:hi], axis=0, out=sums[lo:hi])
+    decay_end = np.exp(-rel_end)[:, None]
+    zero_start = decay_end * sums
+    # Each block spans > 460 units of decay, so a block's end forgets its own start state.
+    block_start = np.empty((len(first),) + u2.shape[1:])
+    block_start[0] = y0
+    block_start[1:] = zero_start[first[1:] - 1]
+    y_end = zero_start + decay_end * np.repeat(block_start, np.diff(bounds), axis=0)
+    return np.vstack([y0[None, :], y_end[:-1]])
+
+
 def lag_average(widths: np.ndarray, inputs: np.ndarray, scale: float, initial: np.ndarray) -> np.ndarray:
     """Average output of a first-order lag over consecutive intervals of constant input.
 
     Solves ``dy/ds = (u - y) / scale`` exactly where ``u`` is constant (row ``inputs[i]``)
     over interval ``i`` of length ``widths[i]`` (same unit as ``scale``: mm³ or s), from
     ``y = initial`` at the start of the first interval, and returns the mean of ``y``
-    over each interval. Vectorized: a prefix sum per block of bounded decay (at most
-    ``total decay / 500`` blocks), so the cost is linear in the number of intervals.
+    over each interval. Vectorized, linear in the number of intervals.
 
     Args:
         widths: ``(m,)`` positive interval lengths.
@@ -69,25 +97,7 @@ def lag_average(widths: np.ndarray, inputs: np.ndarray, scale: float, initial: n
     u2 = u[:, None] if flat else u
     y0 = np.broadcast_to(np.asarray(initial, dtype=float), u2.shape[1:])
     x = np.asarray(widths, dtype=float) / scale
-    xc = np.minimum(x, _MAX_DECAY)
-    e_end = np.cumsum(xc)
-    e_start = e_end - xc
-    block = (e_start // _BLOCK_DECAY).astype(np.int64)
-    first = np.flatnonzero(np.r_[True, block[1:] != block[:-1]])
-    bounds = np.r_[first, len(x)]
-    rel_end = e_end - np.repeat(e_start[first], np.diff(bounds))
-    terms = (-np.expm1(-xc) * np.exp(rel_end))[:, None] * u2
-    sums = np.empty_like(terms)
-    for lo, hi in zip(bounds[:-1], bounds[1:]):
-        np.cumsum(terms[lo:hi], axis=0, out=sums[lo:hi])
-    decay = np.exp(-rel_end)[:, None]
-    zero_start = decay * sums
-    # Each block spans > 460 units of decay, so a block's end forgets its own start state.
-    block_start = np.empty((len(first),) + u2.shape[1:])
-    block_start[0] = y0
-    block_start[1:] = zero_start[first[1:] - 1]
-    y_end = zero_start + decay * np.repeat(block_start, np.diff(bounds), axis=0)
-    y_begin = np.vstack([y0[None, :], y_end[:-1]])
+    y_begin = _lag_start(x, u2, y0)
     gain = np.where(x > 0, -np.expm1(-x) / np.where(x > 0, x, 1.0), 1.0)[:, None]
     mean = u2 + (y_begin - u2) * gain
     return mean[:, 0] if flat else mean
@@ -101,6 +111,12 @@ def mixing_deposit(
     initial: np.ndarray | None = None,
 ) -> np.ndarray:
     """Composition deposited on each extrusion segment by the melt-chamber model.
+
+    The chamber's input is piecewise constant in extruded volume: *runs* that start
+    where a commanded change has been pushed through the plug (``v_plug`` after it).
+    The lag state at the start of each run comes from :func:`_lag_start` over the runs;
+    within a run the output is ``u + (y_r - u) exp(-(v - V_r) / v_mix)``, integrated in
+    closed form over each piece of a segment between run starts.
 
     Args:
         volumes: ``(n,)`` extruded volume of each segment in printing order, mm³ (> 0).
@@ -122,20 +138,24 @@ def mixing_deposit(
     edges = np.concatenate([[0.0], np.cumsum(vol)])
     total = edges[-1]
     changed = np.flatnonzero(np.any(cmd[1:] != cmd[:-1], axis=1)) + 1
-    arrivals = np.concatenate([[v_plug], edges[changed] + v_plug])
-    arrivals = arrivals[arrivals < total]
-    # merge the (few) arrival points into the sorted segment edges; drop repeated points
-    grid = np.insert(edges, np.searchsorted(edges, arrivals), arrivals)
-    is_edge = np.insert(np.ones(n + 1, dtype=bool), np.searchsorted(edges, arrivals), False)
-    groups = np.flatnonzero(np.r_[True, np.diff(grid) > 0])
-    grid, is_edge = grid[groups], np.logical_or.reduceat(is_edge, groups)
+    run_start = np.concatenate([[0.0, v_plug], edges[changed] + v_plug])
+    run_input = np.concatenate([start[None, :], cmd[:1], cmd[changed]])
+    inside = run_start < total
+    run_start, run_input = run_start[inside], run_input[inside]
+    # pieces: the segments cut at every later run start (inserted after an equal edge)
+    at = np.searchsorted(edges, run_start[1:], side="right")
+    grid = np.insert(edges, at, run_start[1:])
+    is_run = np.insert(np.zeros(n + 1, dtype=bool), at, True)
+    run = np.cumsum(is_run[:-1])
+    first_piece = np.flatnonzero(~is_run[:-1])
     widths = np.diff(grid)
-    mids = grid[:-1] + widths / 2
-    source = np.searchsorted(edges, mids - v_plug, side="right") - 1
-    inputs = np.where((source < 0)[:, None], start, cmd[np.clip(source, 0, n - 1)])
-    mean = lag_average(widths, inputs, v_mix, start)
-    first = np.flatnonzero(is_edge[:-1])
-    return np.add.reduceat(mean * widths[:, None], first, axis=0) / vol[:, None]
+    u = run_input[run]
+    integral = u * widths[:, None]
+    if v_mix > 0:
+        y_run = _lag_start(np.diff(np.r_[run_start, total]) / v_mix, run_input, start)
+        faded = np.exp(-(grid[:-1] - run_start[run]) / v_mix) * -np.expm1(-widths / v_mix) * v_mix
+        integral += (y_run[run] - u) * faded[:, None]
+    return np.add.reduceat(integral, first_piece, axis=0) / vol[:, None]
 
 
 def thermal_temperature(durations: np.ndarray, commanded: np.ndarray, tau_s: float, initial: float | None = None) -> np.ndarray:
