@@ -13,7 +13,7 @@ from pathlib import Path
 
 import click
 
-from fgslice.errors import FgsliceError, OutputError
+from fgslice.errors import FgsliceError
 
 
 def _fail(error: FgsliceError) -> None:
@@ -41,6 +41,7 @@ def main() -> None:
 
 
 def _settings(profile: str | None, sets: tuple[str, ...], extra: dict | None = None):
+    """Settings of ``profile`` with ``--set`` overrides, then the options in ``extra`` that were given."""
     from fgslice.settings import load_settings, parse_overrides
 
     overrides = parse_overrides(sets)
@@ -49,6 +50,7 @@ def _settings(profile: str | None, sets: tuple[str, ...], extra: dict | None = N
 
 
 def _write_json(path: Path, data: dict) -> None:
+    """Write ``data`` as indented JSON, atomically."""
     from fgslice.output import atomic_output, check_writable
 
     check_writable(path)
@@ -152,6 +154,7 @@ class _progress:
         return self.update
 
     def update(self, done: int, total: int) -> None:
+        """Show ``done`` of ``total`` layers."""
         self.bar.update(self.task, completed=done, total=total)
 
     def __exit__(self, *exc) -> None:

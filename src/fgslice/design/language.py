@@ -331,7 +331,7 @@ def _vector_op(cls, name: str, allow_uniform: bool = False):
 
 
 def _fgrade(b: _Builder, args, children, where, top):
-    values, _ = _match(
+    _match(
         "fgrade",
         '(["expr", ...], ["material", ...][, "prob" | "thresh"])',
         args,

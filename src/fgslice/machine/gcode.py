@@ -42,7 +42,7 @@ from typing import TextIO
 import numpy as np
 
 from fgslice.errors import SettingsError
-from fgslice.machine.dialects import Dialect, PaletteLike
+from fgslice.machine.dialects import PLACEHOLDER, Dialect, PaletteLike
 from fgslice.machine.thumbnails import thumbnail_block
 from fgslice.planning.plan import LayerPlan, SetState
 from fgslice.settings import Settings
@@ -52,7 +52,6 @@ INT_DIGITS = 9
 ROLES = tuple(Role)
 ROLE_CODE = {role: k for k, role in enumerate(ROLES)}
 TYPE_LINES = np.array([f";TYPE:{role.value}\n" for role in ROLES] + [""], dtype=object)
-GCODE_PLACEHOLDER = re.compile(r"\{([^{}\s]*)\}")
 
 
 def fgslice_version() -> str:
@@ -192,7 +191,7 @@ def fill_placeholders(text: str, values: dict[str, str], what: str) -> str:
             )
         return values[name]
 
-    return GCODE_PLACEHOLDER.sub(replace, text)
+    return PLACEHOLDER.sub(replace, text)
 
 
 def format_duration(seconds: float) -> str:

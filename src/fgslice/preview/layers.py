@@ -188,7 +188,7 @@ def draw_layer(ax, printout: Printout, colors: StateColors, layer: int, px_per_m
 def _legend(fig: Figure, colors: StateColors, keys: np.ndarray, size: tuple[int, int], box: tuple[float, float, float, float]) -> None:
     """The key of the colors drawn, in the pixel ``box`` right of the panels."""
     w, h = size
-    left, bottom, width, height = box
+    left, bottom, _, height = box
     if colors.mode == "temperature":
         from matplotlib import colormaps
         from matplotlib.cm import ScalarMappable

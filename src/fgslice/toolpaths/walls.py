@@ -1,4 +1,5 @@
-"""Perimeters (walls) by inward offsets of a layer outline, and the offset helpers.
+"""Perimeters (walls) by inward offsets of a layer outline, and the offset and ring functions
+the other toolpath modules share.
 
 Spacing model (see ``docs/toolpaths.md``): a bead of width ``w`` and height ``h`` has the
 capsule cross-section ``A = h (w - h) + pi h^2 / 4`` (mm²). Neighbouring beads are laid
