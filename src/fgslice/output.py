@@ -21,6 +21,8 @@ from fgslice.errors import OutputError
 def check_writable(path: str | Path, *, inputs: tuple[str | Path, ...] = ()) -> Path:
     """Refuse early an output path that cannot be written or that names an input.
 
+    Returns ``path`` as a :class:`~pathlib.Path`; ``inputs`` entries may be None (skipped).
+
     Raises:
         OutputError: the folder is missing or not writable, the path is a folder, or it
             is one of ``inputs`` (fgslice never overwrites its input).
@@ -46,6 +48,9 @@ def check_writable(path: str | Path, *, inputs: tuple[str | Path, ...] = ()) -> 
 @contextlib.contextmanager
 def atomic_output(path: str | Path, mode: str = "w") -> Iterator[IO]:
     """Open a temporary file beside ``path``; rename it to ``path`` when the block succeeds.
+
+    ``mode`` is ``"w"`` (UTF-8 text, ``\\n`` line ends) or ``"wb"``; the file ends up
+    with permissions 0644.
 
     The handle's ``name`` is the temporary file's path, so the block can re-read what it
     wrote (to verify it) before the rename.

@@ -57,7 +57,13 @@ COLOR_SAMPLE_MM = 2.0
 
 @dataclass
 class SliceJob:
-    """Everything a per-layer worker needs (read-only once built)."""
+    """Everything a per-layer worker needs (read-only once built).
+
+    Attributes:
+        layers: ``(layer index, top z, height)`` per layer, bed frame, mm.
+        start_xy: where each layer's travel ordering starts, bed frame, mm.
+        outlines: strategy 1 only: every layer's bed-frame outline, in layer order.
+    """
 
     design: Design
     settings: Settings
@@ -70,7 +76,14 @@ class SliceJob:
 
 @dataclass
 class LayerResult:
-    """What one layer's worker returns."""
+    """What one layer's worker returns.
+
+    Attributes:
+        short_pieces: strategy 1's count of pieces shorter than ``min_segment_mm`` (None for
+            strategy 2 or a layer without cut pieces).
+        uncovered_mm2: area narrower than a bead that no path covers, mm^2.
+        colors: number of palette colors the layer's paths use.
+    """
 
     plan: LayerPlan
     short_pieces: strategy1.ShortPieces | None
@@ -80,7 +93,12 @@ class LayerResult:
 
 @dataclass
 class SliceResult:
-    """A finished slice: where it went and its statistics (JSON-ready)."""
+    """A finished slice: where it went and its statistics.
+
+    ``stats`` is JSON-ready: the G-code writer's keys (``docs/gcode.md``) plus the
+    pipeline's (strategy, uncovered area, purge, placement, slicing time); volumes mm^3,
+    areas mm^2, lengths mm, masses g, times s.
+    """
 
     output: FilePath
     stats: dict
@@ -184,6 +202,9 @@ def slice_to_gcode(
         thumbnails: PNG thumbnails ``(png, width, height)`` to embed.
         progress: called as ``progress(done_layers, total_layers)``.
         verify: check the written file against the machine's limits before keeping it.
+
+    Returns:
+        The output path and the statistics (see :class:`SliceResult`).
 
     Raises:
         FgsliceError: any refusal (settings, design, bed size, verification, output).

@@ -68,6 +68,9 @@ def combinations(
 ) -> list[Combination]:
     """Resolve every combination's settings (all are validated before anything is sliced).
 
+    Arguments as :func:`run_sweep` (``zipper`` in percent); ``stem`` starts every
+    combination's name.
+
     Raises:
         SettingsError: an empty list, a duplicate name, or a value the settings refuse.
     """
