@@ -13,6 +13,7 @@ than a bead are merged into their longer neighbour. Units mm; bed frame.
 
 from __future__ import annotations
 
+import heapq
 from dataclasses import dataclass
 
 import numpy as np
@@ -375,19 +376,88 @@ def _color_runs(color, pid, length, closed) -> np.ndarray:
 
 def _merge_short(starts: list, ends: list, labels: list, min_length: float, closed: bool, total: float):
     """Give each piece shorter than ``min_length`` its longer neighbour's color and
-    join neighbours of equal color (cyclically for closed paths)."""
-    while len(labels) > 1:
-        lengths = np.subtract(ends, starts)
-        i = int(np.argmin(lengths))
-        if lengths[i] >= min_length:
+    join neighbours of equal color (cyclically for closed paths).
+
+    Pieces are merged shortest first (the first of equal lengths in path order),
+    each into its longer neighbour (the previous one on a tie). After the first
+    merge all equal neighbours are joined; from then on each merge joins a piece
+    with its neighbours of the new color, kept in a doubly linked list (pieces keep
+    their list position as id; a piece joined over a closed path's start becomes
+    the last one) with a heap of ``(length, id)`` checked lazily, so a path of ``n``
+    pieces takes ``O(n log n)``.
+    """
+    if len(labels) < 2:
+        return starts, ends, labels
+    lengths = np.subtract(ends, starts)
+    i = int(np.argmin(lengths))
+    if lengths[i] >= min_length:
+        return starts, ends, labels
+    n = len(labels)
+    options = [j for j in ((i - 1) % n if (closed or i > 0) else None, (i + 1) % n if (closed or i < n - 1) else None) if j is not None]
+    labels = list(labels)
+    labels[i] = labels[max(options, key=lambda j: lengths[j])]
+    s, e, lab = _join_equal(starts, ends, labels, closed, total)
+    n = len(lab)
+    if n < 2:
+        return s, e, lab
+    nxt = list(range(1, n)) + [0 if closed else -1]
+    prv = [n - 1 if closed else -1] + list(range(n - 1))
+    alive = [True] * n
+    heap = [(e[k] - s[k], k) for k in range(n)]
+    heapq.heapify(heap)
+    head, count = 0, n
+    while count > 1:
+        length, i = heap[0]
+        if not alive[i] or length != e[i] - s[i]:
+            heapq.heappop(heap)
+            continue
+        if length >= min_length:
             break
-        n = len(labels)
-        prev = (i - 1) % n if (closed or i > 0) else None
-        nxt = (i + 1) % n if (closed or i < n - 1) else None
-        options = [j for j in (prev, nxt) if j is not None]
-        labels[i] = labels[max(options, key=lambda j: lengths[j])]
-        starts, ends, labels = _join_equal(starts, ends, labels, closed, total)
-    return starts, ends, labels
+        has_prev = closed or i != head
+        has_next = closed or nxt[i] != -1
+        if has_prev and has_next:
+            p, q = prv[i], nxt[i]
+            j = p if e[p] - s[p] >= e[q] - s[q] else q
+        else:
+            j = prv[i] if has_prev else nxt[i]
+        lab[i] = lab[j]
+        # linear join: i with its previous and next pieces of the same color
+        first = i
+        if first != head and lab[prv[first]] == lab[first]:
+            first = prv[first]
+        last = first
+        while nxt[last] != -1 and nxt[last] != head and lab[nxt[last]] == lab[first]:
+            last = nxt[last]
+        if first != last:
+            e[first] = e[last]
+            k = nxt[first]
+            while True:
+                alive[k] = False
+                count -= 1
+                if k == last:
+                    break
+                k = nxt[k]
+            nxt[first] = nxt[last]
+            if nxt[last] != -1:
+                prv[nxt[last]] = first
+            heapq.heappush(heap, (e[first] - s[first], first))
+        # wrap join: the last piece continues into the first
+        tail = prv[head]
+        if closed and count > 1 and lab[head] == lab[tail]:
+            e[tail] = e[head] + total
+            alive[head] = False
+            count -= 1
+            nxt[tail], prv[nxt[head]] = nxt[head], tail
+            head = nxt[head]
+            heapq.heappush(heap, (e[tail] - s[tail], tail))
+    keep = [k for k in range(n) if alive[k]]
+    if closed and count > 1:
+        # list order: from head around the cycle (a piece joined over the start is last)
+        keep, k = [], head
+        for _ in range(count):
+            keep.append(k)
+            k = nxt[k]
+    return [s[k] for k in keep], [e[k] for k in keep], [lab[k] for k in keep]
 
 
 def _join_equal(starts: list, ends: list, labels: list, closed: bool, total: float):
@@ -403,19 +473,6 @@ def _join_equal(starts: list, ends: list, labels: list, closed: bool, total: flo
         e[-1] = e[0] + total
         s, e, lab = s[1:], e[1:], lab[1:]
     return s, e, lab
-
-
-def _slice(verts: np.ndarray, arc: np.ndarray, s0: float, s1: float, total: float) -> np.ndarray:
-    """Points of a path between arc positions ``s0 < s1`` (``s1`` may pass ``total``
-    on a closed path, wrapping past its start)."""
-    if s1 > total:
-        head = _slice(verts, arc, s0, total, total)
-        tail = _slice(verts, arc, 0.0, s1 - total, total)
-        return np.vstack([head, tail[1:]])
-    inside = (arc > s0) & (arc < s1)
-    x0 = [np.interp(s0, arc, verts[:, 0]), np.interp(s0, arc, verts[:, 1])]
-    x1 = [np.interp(s1, arc, verts[:, 0]), np.interp(s1, arc, verts[:, 1])]
-    return np.vstack([x0, verts[inside], x1])
 
 
 @dataclass(frozen=True)
