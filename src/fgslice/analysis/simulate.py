@@ -27,15 +27,15 @@ coordinates of a trace are in the bed frame (``bed = design + placement offset``
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from os import PathLike
-from pathlib import Path as FilePath
 
 import numpy as np
 
 from fgslice.design.base import Design, Material
-from fgslice.errors import GcodeError, SettingsError, SliceError
-from fgslice.machine.gcode_header import GcodeHeader, parse_header
+from fgslice.errors import SettingsError, SliceError
+from fgslice.machine.gcode_header import GcodeHeader, parse_header, read_header
 from fgslice.slicing.layers import Placement
 
 #: Per-interval decay exponent cap: beyond it the previous state weighs < 5e-18.
@@ -197,6 +197,9 @@ def fraction_from_temperature(temperature: np.ndarray, temperature_a: float, tem
 class SegmentTrace:
     """Every move of a print in order, as plain arrays (bed frame, mm, mm³, s, degC).
 
+    A trace read for the melt-chamber model may hold only the extrusion moves: travels
+    deposit nothing and take no part in mixing.
+
     Attributes:
         start: ``(n, 3)`` start point of each move.
         end: ``(n, 3)`` end point of each move.
@@ -268,9 +271,15 @@ class MeltModel:
         return self.mixing_share * self.melt_volume_mm3
 
 
+def _extruding(trace: SegmentTrace) -> np.ndarray | slice:
+    """Selects the trace's extrusion moves: a mask, or a slice (views, no copies) when all extrude."""
+    extruding = trace.volume > 0
+    return slice(None) if extruding.all() else extruding
+
+
 def deposit(trace: SegmentTrace, model: MeltModel) -> np.ndarray:
     """Deposited composition ``(n_extrusions, k)`` of the trace's extrusion moves, in order."""
-    extruding = trace.volume > 0
+    extruding = _extruding(trace)
     if model.kind == "thermal":
         actual = thermal_temperature(trace.duration, trace.temperature, model.tau_s)
         return fraction_from_temperature(actual[extruding], model.temperature_a, model.temperature_b)
@@ -343,7 +352,7 @@ def simulate_trace(
     (skirt, purge towers, travel-side artefacts of other slicers) or whose move is not
     part of the part (``trace.part``) are kept in the result but flagged ``part=False``.
     """
-    extruding = trace.volume > 0
+    extruding = _extruding(trace)
     deposited = deposit(trace, model)
     start = trace.start[extruding]
     end = trace.end[extruding]
@@ -460,7 +469,7 @@ def simulation_settings(gcode: str | PathLike | bytes, profile: str | None = Non
 
     if profile is not None:
         return load_settings(profile, overrides)
-    values = {k: v for k, v in parse_header(*_gcode_text(gcode)).settings.items() if k in SIMULATION_KEYS}
+    values = {k: v for k, v in _header_of(gcode).settings.items() if k in SIMULATION_KEYS}
     name = values.pop("profile_name", None)
     values.update(overrides or {})
     return load_settings(name if name in builtin_profiles() else None, values)
@@ -493,7 +502,7 @@ def _state_compositions(program, settings, centers: np.ndarray, n_materials: int
     return out
 
 
-def trace_from_program(program, settings, centers: np.ndarray) -> SegmentTrace:
+def trace_from_program(program, settings, centers: np.ndarray, *, travels: bool = True) -> SegmentTrace:
     """The moves of a read G-code program as a :class:`SegmentTrace`.
 
     Works for any slicer's G-code (relative or absolute E, ``G92``): a move deposits
@@ -507,35 +516,73 @@ def trace_from_program(program, settings, centers: np.ndarray) -> SegmentTrace:
         program: a :class:`fgslice.machine.gcode_reader.GcodeProgram`.
         settings: dialect, filament diameter, temperatures.
         centers: ``(N, k)`` palette centers (composition of color / tool ``i``).
+        travels: keep the moves that deposit nothing (False: extrusion moves only).
     """
-    centers = np.asarray(centers, dtype=float)
+    return trace_from_chunks([program], settings, centers, travels=travels)
+
+
+#: Per-move arrays a trace keeps from each chunk of G-code.
+_CHUNK_FIELDS = ("start", "end", "volume", "duration", "state", "role", "layer", "line")
+
+
+def _chunk_moves(program, settings, travels: bool) -> dict[str, np.ndarray]:
+    """The :data:`_CHUNK_FIELDS` of one chunk's moves (see :func:`trace_from_program`)."""
     filament_area = np.pi * settings.filament_diameter**2 / 4
     flow = program.flow_of_moves() / 100.0
     deposits = (program.e > 0) & (program.length > 0)
     volume = np.where(deposits, program.e * filament_area * flow, 0.0)
-    distance = np.maximum(np.linalg.norm(program.end - program.start, axis=1), np.abs(program.e))
+    delta = program.end - program.start
+    distance = np.maximum(np.sqrt(np.einsum("ij,ij->i", delta, delta)), np.abs(program.e))
     speed = np.where(program.feed > 0, program.feed / 60.0, settings.travel_speed)
-    temps = np.array([settings.nozzle_temperature if s.temperature is None else s.temperature for s in program.states])
-    non_part = np.array([any(word in name.lower() for word in _NON_PART_ROLES) for name in program.roles] + [False])
-    layer = np.maximum(program.layer, 0)
-    tops = np.asarray(program.layer_z, dtype=float)
+    keep = slice(None) if travels else volume > 0
+    return {
+        "start": program.start[keep],
+        "end": program.end[keep],
+        "volume": volume[keep],
+        "duration": (distance / speed)[keep],
+        "state": program.state[keep].astype(np.int32),
+        "role": program.role[keep].astype(np.int32),
+        "layer": np.maximum(program.layer[keep], 0),
+        "line": program.line[keep],
+    }
+
+
+def trace_from_chunks(chunks: Iterable, settings, centers: np.ndarray, *, travels: bool = True) -> SegmentTrace:
+    """:func:`trace_from_program` over the chunks of
+    :func:`fgslice.machine.gcode_reader.iter_gcode`, keeping only the arrays a trace
+    needs from each chunk, so a long file never sits in memory as a whole program.
+
+    Raises:
+        GcodeError: from the chunks' reader (unreadable, empty, no moves).
+    """
+    parts: dict[str, list[np.ndarray]] = {name: [] for name in _CHUNK_FIELDS}
+    last = None
+    for last in chunks:
+        for name, array in _chunk_moves(last, settings, travels).items():
+            parts[name].append(array)
+    moves = {name: np.concatenate(parts.pop(name)) for name in _CHUNK_FIELDS}
+    centers = np.asarray(centers, dtype=float)
+    temps = np.array([settings.nozzle_temperature if s.temperature is None else s.temperature for s in last.states])
+    non_part = np.array([any(word in name.lower() for word in _NON_PART_ROLES) for name in last.roles] + [False])
+    layer = moves["layer"]
+    tops = np.asarray(last.layer_z, dtype=float)
     heights = np.diff(np.r_[0.0, tops]) if len(tops) else np.zeros(0)
     height = np.full(len(layer), settings.layer_height)
     known = (layer < len(heights))
     height[known] = heights[layer[known]]
     height = np.where(height > 0, height, settings.layer_height)
-    commanded = _state_compositions(program, settings, centers, centers.shape[1])[program.state]
+    commanded = _state_compositions(last, settings, centers, centers.shape[1])[moves["state"]]
     return SegmentTrace(
-        start=program.start,
-        end=program.end,
-        volume=volume,
-        duration=distance / speed,
+        start=moves["start"],
+        end=moves["end"],
+        volume=moves["volume"],
+        duration=moves["duration"],
         commanded=commanded,
-        temperature=temps[program.state],
+        temperature=temps[moves["state"]],
         height=height,
         layer=layer,
-        line=program.line,
-        part=~non_part[program.role],
+        line=moves["line"],
+        part=~non_part[moves["role"]],
     )
 
 
@@ -569,17 +616,11 @@ def simulate(
         SettingsError: a negative melt volume, equal temperatures of the mapping, a
             temperature profile for a design of other than two materials.
     """
-    from fgslice.machine.gcode_reader import GcodeProgram, read_gcode
+    from fgslice.machine.gcode_reader import GcodeProgram, iter_gcode
     from fgslice.slicing.palette import Palette
     from fgslice.slicing.plan_layers import place_design
 
-    header = GcodeHeader()
-    if isinstance(gcode, GcodeProgram):
-        program = gcode
-    else:
-        text, name = _gcode_text(gcode)
-        header = parse_header(text, name)
-        program = read_gcode(text)
+    header = GcodeHeader() if isinstance(gcode, GcodeProgram) else _header_of(gcode)
     if settings.dialect == "temperature" and len(design.materials) != 2:
         raise SettingsError(
             f"the temperature dialect grades two materials; the design has {len(design.materials)}",
@@ -593,18 +634,17 @@ def simulate(
         offset = header.placement_offset
     else:
         offset = tuple(place_design(design, settings).offset)
-    trace = trace_from_program(program, settings, palette.centers)
     model = MeltModel.from_settings(settings, melt_volume_mm3)
+    chunks = [gcode] if isinstance(gcode, GcodeProgram) else iter_gcode(gcode)
+    trace = trace_from_chunks(chunks, settings, palette.centers, travels=model.kind == "thermal")
     return simulate_trace(trace, design, offset, model, palette_size=size, part_tolerance_mm=settings.bead_width / 2)
 
 
-def _gcode_text(gcode) -> tuple[str, str | None]:
-    """G-code text and file name from a path, bytes or text."""
+def _header_of(gcode) -> GcodeHeader:
+    """The header comments of a G-code path (read only up to the first layer change),
+    bytes or text."""
     if isinstance(gcode, bytes):
-        return gcode.decode("utf-8", errors="replace"), None
+        return parse_header(gcode.decode("utf-8", errors="replace"))
     if isinstance(gcode, PathLike) or (isinstance(gcode, str) and "\n" not in gcode and len(gcode) < 4096):
-        try:
-            return FilePath(gcode).read_text(encoding="utf-8", errors="replace"), str(gcode)
-        except OSError as exc:
-            raise GcodeError(f"cannot read G-code: {exc.strerror}", file=str(gcode)) from None
-    return str(gcode), None
+        return read_header(gcode)
+    return parse_header(str(gcode))
