@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import replace
 from operator import attrgetter
 
 import numpy as np
@@ -180,15 +179,21 @@ def _walk_unit(
             d = points - (x, y)
             vertex = int(np.argmin(np.einsum("ij,ij->i", d, d)))
             if vertex:
-                path = replace(path, points=np.concatenate((points[vertex:], points[:vertex])))
+                path = _moved(path, np.concatenate((points[vertex:], points[:vertex])))
             x, y = float(points[vertex, 0]), float(points[vertex, 1])
         elif (ex[i] - x) ** 2 + (ey[i] - y) ** 2 < (sx[i] - x) ** 2 + (sy[i] - y) ** 2:
-            path = replace(path, points=path.points[::-1])
+            path = _moved(path, path.points[::-1])
             x, y = sx[i], sy[i]
         else:
             x, y = ex[i], ey[i]
         out.append(path)
     return x, y
+
+
+def _moved(path: Path, points: np.ndarray) -> Path:
+    """``path`` with its points replaced (rotated or reversed); the constructor directly,
+    as ``dataclasses.replace`` costs several times more per path."""
+    return Path(points, path.role, path.color, path.width, path.height, path.closed, path.group)
 
 
 def travel_distance(paths: Sequence[Path], start_xy: np.ndarray) -> float:
@@ -226,12 +231,12 @@ def travel_tour(paths: Sequence[Path], start_xy: np.ndarray) -> tuple[list[Path]
             points = path.points
             vertex = int(np.argmin(np.einsum("ij,ij->i", points - position, points - position)))
             if vertex:
-                path = replace(path, points=np.roll(points, -vertex, axis=0))
+                path = _moved(path, np.roll(points, -vertex, axis=0))
             position = path.points[0]
             at_entry = -1
         else:
             if entries.reverses[chosen]:
-                path = replace(path, points=path.points[::-1])
+                path = _moved(path, path.points[::-1])
             at_entry = entries.partner[chosen]
             position = path.points[-1]
         out.append(path)
