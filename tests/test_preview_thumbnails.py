@@ -69,3 +69,15 @@ def test_thumbnails_embedded_in_gcode_decode_to_pngs(tmp_path):
         image = Image.open(io.BytesIO(base64.b64decode(data)))
         assert image.size == (int(w), int(h))
         assert np.asarray(image.convert("RGBA"))[:, :, 3].max() == 255
+
+
+def test_trilinear_matches_scipy_map_coordinates_with_edges_clamped():
+    from scipy.ndimage import map_coordinates
+
+    from fgslice.preview.thumbnails import _trilinear
+
+    rng = np.random.default_rng(3)
+    volume = rng.normal(size=(4, 6, 9))
+    index = rng.uniform(-3.0, 11.0, size=(3, 2000))
+    expected = map_coordinates(volume, index, order=1, mode="nearest")
+    assert np.allclose(_trilinear(volume, index), expected, atol=1e-12)

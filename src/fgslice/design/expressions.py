@@ -30,7 +30,6 @@ from types import MappingProxyType
 
 import lark
 import numpy as np
-import scipy.special
 
 from fgslice.errors import DesignError, DesignSyntaxError, FgsliceError, FieldError, did_you_mean
 
@@ -149,6 +148,13 @@ def _select(c, a, b):
     return np.where(np.not_equal(c, 0.0), a, b)
 
 
+def _erf(x, out=None):
+    """The error function, elementwise (scipy is imported on first use: it takes ~0.4 s)."""
+    from scipy.special import erf
+
+    return erf(x, out=out)
+
+
 _FUNCTION_TABLE: list[tuple[str, tuple[str, ...], bool, Callable | None, str]] = [
     ("abs", ("x",), False, np.absolute, "absolute value"),
     ("avg", ("a",), True, None, "mean of the arguments"),
@@ -175,7 +181,7 @@ _FUNCTION_TABLE: list[tuple[str, tuple[str, ...], bool, Callable | None, str]] =
     ("trunc", ("x",), False, np.trunc, "integer part, towards zero"),
     ("deg2rad", ("x",), False, np.deg2rad, "degrees to radians"),
     ("rad2deg", ("x",), False, np.rad2deg, "radians to degrees"),
-    ("erf", ("x",), False, scipy.special.erf, "error function"),
+    ("erf", ("x",), False, _erf, "error function"),
     ("if", ("c", "a", "b"), False, None, "a where c is nonzero, else b (same as c ? a : b)"),
 ]
 

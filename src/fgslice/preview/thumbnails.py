@@ -8,7 +8,7 @@ viewer's shoulder; the background is transparent.
 
 Rendering is cheap and does not slice: the signed distance is sampled once on a coarse
 grid over the design's bounds (about :data:`GRID_POINTS` points); every pixel's ray is
-marched through that grid's trilinear interpolation (``scipy.ndimage.map_coordinates``)
+marched through that grid's trilinear interpolation (:func:`_trilinear`)
 by sphere tracing, the first crossing is refined by bisection on the design's exact
 signed distance, and the design's fractions are evaluated once per hit pixel. Features
 thinner than the grid spacing (a few mm on a 150 mm part) may be missed; at thumbnail
@@ -27,7 +27,6 @@ import time
 
 import numpy as np
 import shapely
-from scipy.ndimage import distance_transform_edt, gaussian_filter, map_coordinates
 
 from fgslice.design.base import Design
 from fgslice.errors import SettingsError
@@ -106,6 +105,8 @@ class _Grid:
 
     @classmethod
     def from_sections(cls, design: Design, lo: np.ndarray, hi: np.ndarray, points: int) -> _Grid:
+        from scipy.ndimage import distance_transform_edt, gaussian_filter
+
         axes, step = cls._axes(lo, hi, points)
         xx, yy = np.meshgrid(axes[0], axes[1], indexing="ij")
         inside = np.stack([shapely.contains_xy(design.section(float(z)), xx, yy) for z in axes[2]], axis=2)
@@ -117,21 +118,40 @@ class _Grid:
 
     def value(self, points: np.ndarray) -> np.ndarray:
         """Trilinear interpolation of the sampled distance at ``(n, 3)`` points (mm)."""
-        return map_coordinates(self.sdf, self._index(points), order=1, mode="nearest")
+        return _trilinear(self.sdf, self._index(points))
 
     def normal(self, points: np.ndarray) -> np.ndarray:
         """Unit outward normals ``(n, 3)`` from the sampled distance's gradient."""
         index = self._index(points)
-        g = np.stack([map_coordinates(c, index, order=1, mode="nearest") for c in self.gradient], axis=1)
+        g = np.stack([_trilinear(c, index) for c in self.gradient], axis=1)
         return g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-12)
+
+
+def _trilinear(volume: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """Trilinear interpolation of ``volume`` at fractional grid indices ``index`` ``(3, n)``;
+    indices outside the grid are clamped to its edge (what ``scipy.ndimage.map_coordinates``
+    does with ``order=1, mode="nearest"``, without importing scipy for every slice)."""
+    shape = np.array(volume.shape)
+    at = np.clip(index.T, 0, shape - 1)
+    base = np.minimum(at.astype(np.intp), shape - 2)
+    fx, fy, fz = (at - base).T
+    i, j, k = base.T
+    c00 = volume[i, j, k] * (1 - fx) + volume[i + 1, j, k] * fx
+    c10 = volume[i, j + 1, k] * (1 - fx) + volume[i + 1, j + 1, k] * fx
+    c01 = volume[i, j, k + 1] * (1 - fx) + volume[i + 1, j, k + 1] * fx
+    c11 = volume[i, j + 1, k + 1] * (1 - fx) + volume[i + 1, j + 1, k + 1] * fx
+    return (c00 * (1 - fy) + c10 * fy) * (1 - fz) + (c01 * (1 - fy) + c11 * fy) * fz
 
 
 def _sdf_is_fast(design: Design, lo: np.ndarray, hi: np.ndarray) -> bool:
     """Whether sampling the design's signed distance costs at most :data:`FAST_SDF_S` per point.
 
-    Timed on a probe of :data:`PROBE_POINTS` points (the first call includes any setup,
-    e.g. a mesh's search structures, which the fallback avoids paying again).
+    A design holding meshes (``design.meshes`` non-empty) is slow without asking: a mesh's
+    signed distance needs search structures that take about a second to build. Otherwise
+    timed on a probe of :data:`PROBE_POINTS` points.
     """
+    if getattr(design, "meshes", None):
+        return False
     probe = lo + (hi - lo) * np.linspace(0.05, 0.95, PROBE_POINTS)[:, None]
     started = time.perf_counter()
     design.sdf(probe[:, 0], probe[:, 1], probe[:, 2])
@@ -147,12 +167,45 @@ def _ray_box(origins: np.ndarray, view: np.ndarray, lo: np.ndarray, hi: np.ndarr
     return np.nanmax(near, axis=1), np.nanmin(far, axis=1)
 
 
-def render_image(design: Design, width: int, height: int) -> np.ndarray:
-    """``(height, width, 4)`` RGBA floats (0-1) of the design's view (row 0 at the top)."""
-    (x0, y0, z0), (x1, y1, z1) = design.bounds()
-    lo, hi = np.array([x0, y0, z0], float), np.array([x1, y1, z1], float)
-    pad = 0.02 * float(np.linalg.norm(hi - lo)) + 1e-3
-    lo, hi = lo - pad, hi + pad
+class _Scene:
+    """What every view of one design shares: its padded bounds (mm), whether its exact
+    signed distance is cheap, and the sampled-distance :class:`_Grid`; built once for all
+    thumbnail sizes."""
+
+    def __init__(self, design: Design) -> None:
+        (x0, y0, z0), (x1, y1, z1) = design.bounds()
+        lo, hi = np.array([x0, y0, z0], float), np.array([x1, y1, z1], float)
+        pad = 0.02 * float(np.linalg.norm(hi - lo)) + 1e-3
+        self.design = design
+        self.lo, self.hi = lo - pad, hi + pad
+        self._grid: _Grid | None = None
+        self._exact: bool | None = None
+
+    @property
+    def exact(self) -> bool:
+        """Whether hits are refined on the design's exact signed distance."""
+        if self._exact is None:
+            self._exact = _sdf_is_fast(self.design, self.lo, self.hi)
+        return self._exact
+
+    @property
+    def grid(self) -> _Grid:
+        """The sampled distance (from the signed distance when exact, else from sections)."""
+        if self._grid is None:
+            if self.exact:
+                self._grid = _Grid.from_sdf(self.design, self.lo, self.hi, GRID_POINTS)
+            else:
+                self._grid = _Grid.from_sections(self.design, self.lo, self.hi, SECTION_GRID_POINTS)
+        return self._grid
+
+
+def render_image(design: Design, width: int, height: int, scene: _Scene | None = None) -> np.ndarray:
+    """``(height, width, 4)`` RGBA floats (0-1) of the design's view (row 0 at the top).
+
+    ``scene`` shares the sampled grid between several sizes of the same design.
+    """
+    scene = scene or _Scene(design)
+    lo, hi = scene.lo, scene.hi
     view, right, up = _view_basis()
     corners = np.array(np.meshgrid(*zip(lo, hi), indexing="ij")).reshape(3, -1).T
     u, v = corners @ right, corners @ up
@@ -170,8 +223,7 @@ def render_image(design: Design, width: int, height: int) -> np.ndarray:
     rays = np.flatnonzero(t_in < t_out)
     if len(rays) == 0:
         return image.reshape(height, width, 4)
-    exact = _sdf_is_fast(design, lo, hi)
-    grid = (_Grid.from_sdf if exact else _Grid.from_sections)(design, lo, hi, GRID_POINTS if exact else SECTION_GRID_POINTS)
+    exact, grid = scene.exact, scene.grid
     min_step = 0.5 * float(grid.step.min())
     t = t_in[rays].copy()
     t_prev = t.copy()
@@ -209,11 +261,11 @@ def render_image(design: Design, width: int, height: int) -> np.ndarray:
     return image.reshape(height, width, 4)
 
 
-def thumbnail_png(design: Design, width: int, height: int) -> bytes:
+def thumbnail_png(design: Design, width: int, height: int, scene: _Scene | None = None) -> bytes:
     """PNG bytes of the design's view, ``width`` x ``height`` pixels, transparent background."""
     from PIL import Image
 
-    pixels = np.round(render_image(design, width, height) * 255).astype(np.uint8)
+    pixels = np.round(render_image(design, width, height, scene) * 255).astype(np.uint8)
     buffer = io.BytesIO()
     Image.fromarray(pixels, "RGBA").save(buffer, format="PNG")
     return buffer.getvalue()
@@ -226,4 +278,5 @@ def render_thumbnails(design: Design, settings, sizes: list[tuple[int, int]] | N
     when malformed); an empty list means no thumbnails.
     """
     chosen = parse_sizes(settings.thumbnails) if sizes is None else sizes
-    return [(thumbnail_png(design, w, h), w, h) for w, h in chosen]
+    scene = _Scene(design)
+    return [(thumbnail_png(design, w, h, scene), w, h) for w, h in chosen]
