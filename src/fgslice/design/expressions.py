@@ -31,6 +31,7 @@ from types import MappingProxyType
 import lark
 import numpy as np
 
+from fgslice.design.lark_cache import cached_lark
 from fgslice.errors import DesignError, DesignSyntaxError, FgsliceError, FieldError, did_you_mean
 
 __all__ = [
@@ -85,7 +86,7 @@ NAME: /[a-z][a-z0-9_]*/
 %ignore /[ \t\r\n]+/
 """
 
-_PARSER = lark.Lark(_GRAMMAR, parser="lalr", lexer="basic", propagate_positions=True)
+_PARSER = cached_lark(_GRAMMAR, lexer="basic", propagate_positions=True)
 
 # The language is case-insensitive and has no strings: the text is parsed with ASCII
 # letters lowered (length-preserving, so token offsets index the original text too).

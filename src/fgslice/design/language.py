@@ -19,6 +19,7 @@ import lark
 import numpy as np
 
 from fgslice.design import nodes
+from fgslice.design.lark_cache import cached_lark
 from fgslice.design.materials import MaterialLibrary, builtin_library, load_library
 from fgslice.errors import DesignError, DesignSyntaxError, MeshError, did_you_mean
 
@@ -56,7 +57,7 @@ _TOKEN_NAMES = {
 
 @functools.cache
 def _parser() -> lark.Lark:
-    return lark.Lark(GRAMMAR, parser="lalr", propagate_positions=True, maybe_placeholders=True)
+    return cached_lark(GRAMMAR, propagate_positions=True, maybe_placeholders=True)
 
 
 @dataclass
