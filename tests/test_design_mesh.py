@@ -85,6 +85,7 @@ def test_vertex_on_plane_and_planes_outside(box_mesh):
     assert sections[1].is_empty
     assert sections[2].area == pytest.approx(200.0)
     assert sections[3].is_empty and sections[4].is_empty
+    assert geometry.section(40.0).is_empty and geometry.section(-15.0).is_empty
 
 
 def test_open_mesh_sections_are_closed(box_mesh):

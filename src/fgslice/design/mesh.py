@@ -156,8 +156,7 @@ class MeshGeometry:
         self._faces = np.asarray(mesh.faces, dtype=np.int64)
         self._edges, self._face_edges = _unique_edges(self._faces, len(self._vertices))
         face_z = self._vertices[self._faces, 2]
-        self._face_zmin = face_z.min(axis=1)
-        self._face_zmax = face_z.max(axis=1)
+        self._slabs = _SlabIndex(face_z.min(axis=1), face_z.max(axis=1))
 
     @property
     def triangle_count(self) -> int:
@@ -182,35 +181,28 @@ class MeshGeometry:
     def sections(self, zs: Sequence[float] | np.ndarray) -> list[shapely.MultiPolygon]:
         """Cross-sections at every height of ``zs`` (any order), computed together."""
         zs = np.asarray(zs, dtype=float).ravel()
-        order = np.argsort(zs, kind="stable")
-        z_sorted = zs[order]
-        first = np.searchsorted(z_sorted, self._face_zmin, side="right")
-        stop = np.searchsorted(z_sorted, self._face_zmax, side="right")
-        pairs_per_plane = np.cumsum(np.bincount(first, minlength=len(zs) + 1) - np.bincount(stop, minlength=len(zs) + 1))[:-1]
+        candidates = self._slabs.candidate_counts(zs)
         result = np.empty(len(zs), dtype=object)
         begin = 0
         while begin < len(zs):
             end = begin + 1
-            total = int(pairs_per_plane[begin])
-            while end < len(zs) and total + pairs_per_plane[end] <= _MAX_PAIRS_PER_BATCH:
-                total += int(pairs_per_plane[end])
+            total = int(candidates[begin])
+            while end < len(zs) and total + candidates[end] <= _MAX_PAIRS_PER_BATCH:
+                total += int(candidates[end])
                 end += 1
-            lo = np.clip(first, begin, end)
-            hi = np.clip(stop, begin, end)
-            result[order[begin:end]] = self._section_batch(z_sorted, lo, hi, begin, end)
+            result[begin:end] = self._section_batch(zs[begin:end])
             begin = end
         return list(result)
 
-    def _section_batch(self, z_sorted, lo, hi, begin, end) -> np.ndarray:
-        """Sections of planes ``begin..end-1`` of ``z_sorted``; face f crosses planes lo[f]..hi[f]-1."""
-        counts = hi - lo
-        face = np.repeat(np.arange(len(counts)), counts)
-        plane = np.repeat(lo, counts) + _ranks_within_runs(counts)
-        segments = _plane_segments(self._vertices, self._faces, self._edges, self._face_edges, face, z_sorted[plane])
-        node_ids, points = segments
-        node_ids = node_ids + (plane[:, None] - begin) * len(self._edges)
-        rings, ring_plane, ring_direction = _stitch(node_ids, points, plane - begin, self.gap_tolerance)
-        return _assemble(rings, ring_plane, ring_direction, end - begin)
+    def _section_batch(self, zs: np.ndarray) -> np.ndarray:
+        """Sections (MultiPolygons) at the heights ``zs``."""
+        plane, face = self._slabs.crossings(zs)
+        if len(face) == 0:
+            return np.array([shapely.MultiPolygon() for _ in zs], dtype=object)
+        node_ids, points = _plane_segments(self._vertices, self._faces, self._edges, self._face_edges, face, zs[plane])
+        node_ids = node_ids + plane[:, None] * len(self._edges)
+        rings, ring_plane, ring_direction = _stitch(node_ids, points, plane, self.gap_tolerance)
+        return _assemble(rings, ring_plane, ring_direction, len(zs))
 
     def sdf(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
         """Signed distance (mm) to the surface, negative inside; shape of the broadcast."""
@@ -244,6 +236,59 @@ def _unique_edges(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.nd
     keys, inverse = np.unique(lo * np.int64(n_vertices) + hi, return_inverse=True)
     edges = np.column_stack([keys // n_vertices, keys % n_vertices])
     return edges, inverse.reshape(-1, 3)
+
+
+class _SlabIndex:
+    """Triangles binned by the horizontal slabs (height ``step``, mm) their z-extent overlaps.
+
+    A plane at height ``z`` is crossed by a triangle when ``zmin < z <= zmax`` (a vertex
+    on the plane counts as above it); every such triangle is binned in the plane's slab,
+    so a plane's candidates are one slab's list instead of the whole mesh. ``step``
+    starts at the median triangle height and doubles until the bins hold at most
+    four entries per triangle.
+    """
+
+    _ENTRIES_PER_TRIANGLE = 4
+
+    def __init__(self, zmin: np.ndarray, zmax: np.ndarray):
+        self._zmin, self._zmax = zmin, zmax
+        self._z0 = float(zmin.min())
+        span = float(zmax.max()) - self._z0
+        self._step = max(float(np.median(zmax - zmin)), span / 65536, 1e-9)
+        while True:
+            lo = self._slab(zmin)
+            counts = self._slab(zmax) - lo + 1
+            if counts.sum() <= self._ENTRIES_PER_TRIANGLE * len(zmin):
+                break
+            self._step *= 2
+        slab = np.repeat(lo, counts) + _ranks_within_runs(counts)
+        order = np.argsort(slab, kind="stable")
+        self._faces = np.repeat(np.arange(len(zmin)), counts)[order]
+        self._start = np.searchsorted(slab[order], np.arange(int(slab.max()) + 2))
+
+    def _slab(self, z: np.ndarray) -> np.ndarray:
+        return np.floor((z - self._z0) / self._step).astype(np.int64)
+
+    def _bins(self, zs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """First entry and entry count of each height's slab (count 0 outside the mesh)."""
+        slab = self._slab(np.clip(zs, self._z0 - self._step, self._z0 + self._step * len(self._start)))
+        inside = (slab >= 0) & (slab < len(self._start) - 1)
+        slab = np.where(inside, slab, 0)
+        first = self._start[slab]
+        return first, np.where(inside, self._start[slab + 1] - first, 0)
+
+    def candidate_counts(self, zs: np.ndarray) -> np.ndarray:
+        """Upper bound on the triangles crossing each plane of ``zs``."""
+        return self._bins(zs)[1]
+
+    def crossings(self, zs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(plane, face)``: each triangle crossing each plane of ``zs``; planes ascending, then faces."""
+        first, counts = self._bins(zs)
+        plane = np.repeat(np.arange(len(zs)), counts)
+        face = self._faces[np.repeat(first, counts) + _ranks_within_runs(counts)]
+        z = zs[plane]
+        crossing = (self._zmin[face] < z) & (z <= self._zmax[face])
+        return plane[crossing], face[crossing]
 
 
 def _ranks_within_runs(counts: np.ndarray) -> np.ndarray:
