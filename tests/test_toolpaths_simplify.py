@@ -1,10 +1,11 @@
-"""Simplification: tolerance respected, closed paths stay closed, vertex count drops."""
+"""Simplification: tolerance respected, closed paths stay closed, vertex count drops,
+polygons stay valid."""
 
 import numpy as np
 import shapely
 
 from fgslice.toolpaths.paths import Path, Role
-from fgslice.toolpaths.simplify import simplify_paths
+from fgslice.toolpaths.simplify import simplify_paths, simplify_polygons
 
 
 def test_simplify_within_tolerance_and_keeps_closure():
@@ -21,3 +22,21 @@ def test_simplify_within_tolerance_and_keeps_closure():
         d = shapely.distance(shapely.points(before.vertices), shapely.LineString(after.vertices))
         assert d.max() <= 0.0125 + 1e-9
         assert abs(before.length - after.length) < 0.01 * before.length
+
+
+def test_simplify_polygons_within_tolerance_and_valid():
+    # a dense, slightly noisy plate with a hole, like a mesh section
+    rng = np.random.default_rng(1)
+    t = np.linspace(0, 2 * np.pi, 4000, endpoint=False)
+    outer = np.column_stack([30 + 20 * np.cos(t), 30 + 15 * np.sin(t)]) + rng.normal(0, 5e-4, (len(t), 2))
+    hole = np.column_stack([30 + 4 * np.cos(t), 30 + 4 * np.sin(t)])[::-1]
+    plate = shapely.Polygon(outer, [hole])
+    notch = shapely.box(0, 0, 10, 10).difference(shapely.box(4, -1, 6, 5))
+    out = simplify_polygons(np.array([plate, notch]), 0.01)
+    assert shapely.is_valid(out).all()
+    assert shapely.get_num_coordinates(out[0]) < shapely.get_num_coordinates(plate) / 10
+    assert shapely.hausdorff_distance(out[0], plate) <= 0.01 + 1e-9
+    assert abs(out[0].area - plate.area) < 0.01 * plate.length
+    # corners survive exactly
+    assert out[1].equals(notch)
+    assert simplify_polygons(plate, 0.01).equals(out[0])

@@ -5,7 +5,8 @@ import pytest
 import shapely
 
 from fgslice.toolpaths.paths import Role
-from fgslice.toolpaths.walls import bead_spacing, make_walls
+from fgslice.toolpaths.simplify import simplify_polygons
+from fgslice.toolpaths.walls import OUTLINE_TOLERANCE, bead_spacing, make_walls
 
 W, H = 0.4, 0.2
 
@@ -43,13 +44,14 @@ def test_hole_gets_walls_and_paths_stay_inside():
     around_hole = [p for p in walls.paths if shapely.Polygon(p.points).contains(shapely.Point(15, 10)) and p.length < 40]
     assert len(around_hole) == 3
     for p in walls.paths:
+        # inside the outline by w/2, up to the outline's simplification
         line = shapely.LinearRing(p.points)
-        assert outline.buffer(-W / 2 + 1e-6).covers(line)
+        assert outline.buffer(-W / 2 + OUTLINE_TOLERANCE + 1e-6).covers(line)
         assert not line.intersects(hole)
     # inner area is the strip edge of the last loop: w/2 + 2 s + s/2 inside
     s = bead_spacing(W, H)
     expected = outline.buffer(-(W / 2 + 2.5 * s), join_style="mitre")
-    assert walls.inner.symmetric_difference(expected).area < 1e-3
+    assert walls.inner.symmetric_difference(expected).area < OUTLINE_TOLERANCE * expected.length
 
 
 def test_outer_first_order():
@@ -78,7 +80,8 @@ def test_no_walls_inner_is_half_bead_inside():
     outline = plate_with_hole()
     walls = make_walls(outline, 0, W, H)
     assert walls.paths == []
-    assert abs(walls.inner.area - outline.buffer(-W / 2, join_style="mitre").area) < 1e-6
+    expected = outline.buffer(-W / 2, join_style="mitre")
+    assert walls.inner.symmetric_difference(expected).area < OUTLINE_TOLERANCE * expected.length
 
 
 def dumbbell():
@@ -93,12 +96,15 @@ def ellipse():
 @pytest.mark.parametrize("shape", [ellipse, dumbbell, plate_with_hole])
 def test_loops_are_the_opened_erosions(shape):
     # loop k is the boundary of the outline eroded by w/2 + k s and opened by s/2, whether
-    # the opening is skipped (no event between levels) or computed (the neck)
+    # the opening is skipped (no event between levels) or computed (the neck); the
+    # outline is simplified first
     outline, count = shape(), 6
     s = bead_spacing(W, H)
     walls = make_walls(outline, count, W, H, outer_first=True)
     dist = W / 2 + s * np.arange(count)
-    opened = shapely.buffer(shapely.buffer(outline, -(dist + s / 2), join_style="mitre", mitre_limit=3), s / 2,
+    simple = simplify_polygons(outline, OUTLINE_TOLERANCE)
+    assert shapely.hausdorff_distance(simple, outline) <= OUTLINE_TOLERANCE
+    opened = shapely.buffer(shapely.buffer(simple, -(dist + s / 2), join_style="mitre", mitre_limit=3), s / 2,
                             join_style="mitre", mitre_limit=3)
     expected = shapely.union_all(shapely.boundary(opened))
     got = shapely.union_all([shapely.LinearRing(p.points) for p in walls.paths])

@@ -1,4 +1,5 @@
-"""Simplify paths to a tolerance (mm) before output, in one vectorized shapely call.
+"""Simplify paths (before output) and polygons (before offsetting) to a tolerance (mm),
+in vectorized shapely calls.
 
 Closed paths stay closed: they are simplified as rings (the closing vertex is taken
 into account, then dropped again, so ``Path.points`` keeps not repeating it).
@@ -42,3 +43,16 @@ def simplify_paths(paths: list[Path], tolerance: float) -> list[Path]:
             p = Path(pts, p.role, p.color, p.width, p.height, p.closed, p.group)
         out.append(p)
     return out
+
+
+def simplify_polygons(geoms, tolerance: float):
+    """Polygonal geometries (one or an array) simplified (Douglas-Peucker) so that their
+    boundaries move by about ``tolerance`` (mm) at most.
+
+    Mesh sections and traced faces carry many vertices closer together than any offset
+    or printer resolves; offsets of the simplified geometry are many times faster.
+    Topology is not preserved vertex by vertex: GEOS repairs the result instead, so
+    it stays valid, and rings closer than ``tolerance`` to each other may merge
+    (material thinner than the tolerance vanishes, far below a bead width).
+    """
+    return shapely.simplify(geoms, tolerance, preserve_topology=False)

@@ -9,7 +9,8 @@ receives exactly ``R h`` of material. The outermost centerline sits exactly ``w 
 inside the outline; loop ``k`` sits ``w / 2 + k s`` inside.
 
 All geometry is shapely 2 in the bed frame, mm. Offsets use mitre joins with
-:data:`MITRE_LIMIT` and are vectorized over arrays of geometries and distances.
+:data:`MITRE_LIMIT` and are vectorized over arrays of geometries and distances. Walls
+are offsets of the outline simplified to :data:`OUTLINE_TOLERANCE`.
 """
 
 from __future__ import annotations
@@ -20,9 +21,15 @@ import numpy as np
 import shapely
 
 from fgslice.toolpaths.paths import Path, Role, bead_area
+from fgslice.toolpaths.simplify import simplify_polygons
 
 MITRE_LIMIT = 3.0
 """Mitre limit of every offset (ratio of the mitre length to the offset distance)."""
+
+OUTLINE_TOLERANCE = 0.005
+"""How far (mm) the outline's boundary may move when simplified before its walls are
+offset: mesh sections carry many vertices a few microns apart, which make mitre offsets
+slow (3DBenchy layers: 1150 vertices on average, 180 at this tolerance; walls 20x faster)."""
 
 
 def bead_spacing(width: float, height: float) -> float:
@@ -157,8 +164,8 @@ class Walls:
 def make_walls(outline, count: int, width: float, height: float, *, outer_first: bool = False, color: int = 0) -> Walls:
     """Perimeters of ``outline``: ``count`` loops per island and per hole.
 
-    Loop ``k`` is the boundary of the outline eroded by ``w / 2 + k s`` (``s`` from
-    :func:`bead_spacing`), opened by ``s / 2`` so that no loop is printed around a
+    Loop ``k`` is the boundary of the outline (simplified to :data:`OUTLINE_TOLERANCE`)
+    eroded by ``w / 2 + k s`` (``s`` from :func:`bead_spacing`), opened by ``s / 2`` so that no loop is printed around a
     sliver narrower than the bead spacing (its two sides would overlap). All erosions
     come from one vectorized offset (loop centers, the inner area and one more level);
     where two consecutive levels have the same combinatorics and the outline has no
@@ -178,6 +185,7 @@ def make_walls(outline, count: int, width: float, height: float, *, outer_first:
         color: color given to every loop.
     """
     s = bead_spacing(width, height)
+    outline = simplify_polygons(outline, OUTLINE_TOLERANCE)
     if count == 0 or outline.is_empty:
         return Walls([], offset(outline, -width / 2))
     dist = width / 2 + s * np.arange(count)
