@@ -25,7 +25,8 @@ the two points where the plane cuts its edges. Conventions and robustness rules:
   mixing directions) falls back to even-odd: it toggles between solid and empty.
   Planes with touching or crossing loops are filled from the faces of the noded
   loops; a remaining invalid result (a self-intersecting loop) goes through
-  ``shapely.make_valid`` and is reduced to its polygons.
+  ``shapely.make_valid``'s ``structure`` method (the faces enclosed by its outer rings
+  minus those enclosed by its holes) and is reduced to its polygons.
 * Outer rings are counter-clockwise, holes clockwise.
 
 The signed distance (negative inside) is the exact distance to the nearest triangle
@@ -43,10 +44,6 @@ from pathlib import Path
 import numpy as np
 import shapely
 import trimesh
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
-
 from fgslice.errors import MeshError
 
 SUPPORTED_FORMATS = {".stl": "stl", ".3mf": "3mf", ".obj": "obj"}
@@ -348,21 +345,20 @@ def _stitch(node_ids: np.ndarray, points: np.ndarray, plane: np.ndarray, gap_tol
     half = np.arange(n_half)
     succ = mate[half ^ 1]
     linked = succ >= 0
-    graph = coo_matrix((np.ones(linked.sum(), dtype=np.int8), (half[linked], succ[linked])), shape=(n_half, n_half))
-    n_comp, label = connected_components(graph, directed=True, connection="weak")
-    comp_min = np.full(n_comp, n_half)
-    np.minimum.at(comp_min, label, half)
-    # each loop or chain is found twice, once per direction; keep the one holding an
-    # even half-end as its smallest
-    keep = comp_min[label] % 2 == 0
-    comp_open = np.zeros(n_comp, dtype=bool)
-    comp_open[label[~linked]] = True
-
-    # break every closed loop before its smallest half-end, then rank by pointer jumping
     pred = np.full(n_half, -1)
     pred[succ[linked]] = half[linked]
+    # every half-end has at most one successor and one predecessor: the walks are
+    # disjoint chains and loops, each labelled by its smallest half-end
+    label = np.minimum(_reach_min(succ), _reach_min(pred))
+    # each loop or chain is found twice, once per direction; keep the one holding an
+    # even half-end as its smallest
+    keep = label % 2 == 0
+    is_open = np.zeros(n_half, dtype=bool)
+    is_open[label[~linked]] = True
+
+    # break every closed loop before its smallest half-end, then rank by pointer jumping
     chain_succ = succ.copy()
-    closed_heads = comp_min[~comp_open]
+    closed_heads = half[(label == half) & ~is_open]
     chain_succ[pred[closed_heads]] = -1
     dist = _distance_to_tail(chain_succ)
 
@@ -378,11 +374,11 @@ def _stitch(node_ids: np.ndarray, points: np.ndarray, plane: np.ndarray, gap_tol
     ring_label = ring_label[order]
     coords = coords[order]
     uniq, ring_index, ring_size = np.unique(ring_label, return_inverse=True, return_counts=True)
-    ring_plane = half_plane[comp_min[uniq]]
-    entered = np.bincount(label[kept], minlength=n_comp)[uniq]
-    backward = np.bincount(label[kept], weights=kept % 2, minlength=n_comp)[uniq]
+    ring_plane = half_plane[uniq]
+    entered = np.bincount(label[kept], minlength=n_half)[uniq]
+    backward = np.bincount(label[kept], weights=kept % 2, minlength=n_half)[uniq]
     ring_direction = np.where(backward == 0, 1, np.where(backward == entered, -1, 0)).astype(np.int8)
-    ring_direction[comp_open[uniq]] = 0
+    ring_direction[is_open[uniq]] = 0
     return (ring_index, coords, ring_size), ring_plane, ring_direction
 
 
@@ -425,6 +421,8 @@ def _pair_open_ends(mate: np.ndarray, xy: np.ndarray, plane: np.ndarray, toleran
     open_ends = np.flatnonzero(mate < 0)
     if len(open_ends) < 2 or tolerance <= 0:
         return
+    from scipy.spatial import cKDTree
+
     pts = xy[open_ends]
     span = np.ptp(pts, axis=0).max() + 4 * tolerance + 1.0
     keyed = np.column_stack([pts, plane[open_ends] * span])
@@ -436,6 +434,22 @@ def _pair_open_ends(mate: np.ndarray, xy: np.ndarray, plane: np.ndarray, toleran
     mutual = np.zeros(len(open_ends), dtype=bool)
     mutual[found] = nearest[nearest[found]] == own[found, 0]
     mate[open_ends[mutual]] = open_ends[nearest[mutual]]
+
+
+def _reach_min(step: np.ndarray) -> np.ndarray:
+    """Smallest index reachable from each element by following ``step`` (-1 = stop), itself included.
+
+    Pointer doubling: after round ``k`` each minimum covers the next ``2^k`` elements;
+    once a round changes none of them, longer windows cannot either.
+    """
+    low = np.arange(len(step))
+    nxt = np.where(step >= 0, step, low)
+    while True:
+        lower = np.minimum(low, low[nxt])
+        if np.array_equal(lower, low):
+            return low
+        low = lower
+        nxt = nxt[nxt]
 
 
 def _distance_to_tail(succ: np.ndarray) -> np.ndarray:
@@ -489,7 +503,7 @@ def _assemble(rings, ring_plane: np.ndarray, ring_direction: np.ndarray, n_plane
         out[plane] = _fill_crossing(exteriors[ids], polygons[ids], winding[ids])
     bad = np.flatnonzero(~shapely.is_valid(out))
     for i in bad:
-        out[i] = _polygonal(shapely.make_valid(out[i]))
+        out[i] = _polygonal(shapely.make_valid(out[i], method="structure", keep_collapsed=False))
     return shapely.orient_polygons(out)
 
 
@@ -616,6 +630,8 @@ class _TriangleDistance:
     _CLUSTER = 16
 
     def __init__(self, triangles: np.ndarray):
+        from scipy.spatial import cKDTree
+
         centroids = triangles.mean(axis=1)
         order = np.argsort(_morton_codes(centroids), kind="stable")
         self._triangles = triangles[order]
