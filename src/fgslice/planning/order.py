@@ -11,45 +11,53 @@ Paths with a ``group`` id (the walls of one island, holes included, as
 ``toolpaths.walls.make_walls`` gives them) form a *unit* printed in its list order, so the
 wall order (outer-first or inner-first) survives cutting into colors: a color group
 prints its units first, each entered at the unit whose first path is nearest, every
-path of a unit rotated (closed) or reversed (open) to start nearest the nozzle. The
-paths' end points are gathered once per layer, so orienting an open path is a comparison
-of two distances and a closed path one vectorized nearest-vertex search; only paths that
-change get a new :class:`Path`.
+path of a unit rotated (closed) or reversed (open) to start nearest the nozzle.
 The other paths of a group are toured greedily: from the nozzle position, go to the
 nearest path entry not printed yet. Entries are both ends of an open path (entering at
-the far end reverses the path) and vertices of a closed path (entering there rotates
-the path to start at that vertex). Nearest entries come from a :class:`scipy.spatial.cKDTree`;
-each entry's nearest neighbours are precomputed in one batched query, so the tour
-usually just scans a short list; a fresh query on a tree of the entries still alive
-handles the rest. Coordinates are bed-frame mm.
+the far end reverses the path) and vertices of a closed path, one per
+:data:`CLOSED_ENTRY_SPACING_MM` of arc (the path is then rotated to start at its exact
+nearest vertex).
+
+The layer's paths are sorted once so that every color group, and every unit in it, is a
+contiguous run; their points, ends and entries are gathered into layer-wide arrays
+(points as complex numbers ``x + iy``, so a distance is one ``abs``). A group with few
+loose paths finds each nearest entry with one numpy pass over the group's entries
+(printed ones set to infinity); a large group uses a :class:`scipy.spatial.cKDTree`
+(imported only then) with each entry's nearest neighbours precomputed. Only paths that
+change get a new :class:`Path`. Coordinates are bed-frame mm.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from operator import attrgetter
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from fgslice.errors import SettingsError
 from fgslice.planning.plan import LayerPlan, SetState, Step
 from fgslice.toolpaths.paths import LayerPaths, Path, Role
 
 WALL_ROLES = frozenset({Role.EXTERNAL_PERIMETER, Role.PERIMETER})
+#: Roles are enum singletons: membership by identity avoids the enum's Python ``__hash__``.
+_WALL_ROLE_IDS = frozenset(map(id, WALL_ROLES))
 FEATURE_ORDERS = ("walls_first", "infill_first")
 SKIRT_COLOR = -1
 
-#: Closed paths are entered at any vertex, but the search index holds one vertex per
-#: this much arc length (mm); the exact nearest vertex is chosen once the path is picked.
+#: Closed paths are entered at any vertex, but the search holds one vertex per this much
+#: arc length (mm); the exact nearest vertex is chosen once the path is picked.
 CLOSED_ENTRY_SPACING_MM = 1.0
-#: Neighbours precomputed per entry.
+#: Groups with at least this many loose paths are toured with a k-d tree; smaller ones by
+#: one numpy pass over the group's entries per path.
+TREE_MIN_PATHS = 128
+#: Neighbours precomputed per entry (tree tours).
 NEIGHBOURS = 6
-#: Neighbours asked for first when the precomputed ones are all visited.
+#: Neighbours asked for first when the precomputed ones are all visited (tree tours).
 FALLBACK_K = 64
-#: Below this many unvisited entries, nearest-entry queries are one numpy pass.
-BRUTE_FORCE_ENTRIES = 256
+#: Tree tours: below this many unvisited entries, nearest-entry queries are one numpy pass.
+BRUTE_FORCE_ENTRIES = 4096
+
+_FAR = complex(np.inf, np.inf)
 
 
 def order_layer(
@@ -81,12 +89,14 @@ def order_layer(
             hint="--set feature_order=walls_first",
         )
     plan = LayerPlan(index=paths.index, z=paths.z, height=paths.height)
-    if not paths.paths:
+    items = paths.paths
+    if not items:
         return plan
+    n = len(items)
     sequence = np.asarray(color_sequence, dtype=np.int64).reshape(-1)
-    colors = np.fromiter(map(attrgetter("color"), paths.paths), dtype=np.int64, count=len(paths.paths))
-    roles = map(attrgetter("role"), paths.paths)
-    walls = np.fromiter(map(WALL_ROLES.__contains__, roles), dtype=bool, count=len(paths.paths))
+    colors = np.fromiter(map(attrgetter("color"), items), dtype=np.int64, count=n)
+    role_ids = map(id, map(attrgetter("role"), items))
+    walls = np.fromiter(map(_WALL_ROLE_IDS.__contains__, role_ids), dtype=bool, count=n)
     stray = np.setdiff1d(colors, np.append(sequence, SKIRT_COLOR))
     if stray.size:
         raise ValueError(f"layer {paths.index}: path colors {stray.tolist()} are not in the color sequence")
@@ -95,99 +105,258 @@ def order_layer(
     rank[sequence[::-1]] = np.arange(sequence.size)[::-1]  # first occurrence wins
     feature_late = ~walls if feature_order == "walls_first" else walls
     group_key = np.where(colors == SKIRT_COLOR, -1, rank[colors] * 2 + feature_late)
-    order = np.argsort(group_key, kind="stable")
-    keys = group_key[order]
-    bounds = np.flatnonzero(np.diff(keys)) + 1
-    position = np.asarray(start_xy, dtype=np.float64).reshape(2)
-    ends = _Ends(paths.paths)
+    unit = np.fromiter(map(attrgetter("group"), items), dtype=np.int64, count=n)
+    loose = unit < 0
+    _, first_seen, inverse = np.unique(unit, return_index=True, return_inverse=True)
+    unit_rank = first_seen[inverse]
+    # Color groups in order; in each, its units (by first appearance, paths in list
+    # order) and then its loose paths.
+    order = np.lexsort((unit_rank, loose, group_key))
+    keys, loose, unit_rank = group_key[order], loose[order], unit_rank[order]
+    group_start = np.flatnonzero(np.r_[True, keys[1:] != keys[:-1]])
+    unit_paths = np.add.reduceat(~loose, group_start)
+    new_unit = np.r_[True, (keys[1:] != keys[:-1]) | (unit_rank[1:] != unit_rank[:-1])]
+    layer = _Layer([items[i] for i in order.tolist()], loose)
+
+    x, y = (float(v) for v in np.asarray(start_xy, dtype=np.float64).reshape(2))
     steps: list[Step] = []
     current = None
-    for members in np.split(order, bounds):
-        color = int(colors[members[0]])
+    group_colors = colors[order[group_start]].tolist()
+    bounds = zip(group_start.tolist(), np.r_[group_start[1:], n].tolist(), unit_paths.tolist())
+    for color, (a, c, units) in zip(group_colors, bounds):
         if color != SKIRT_COLOR and color != current:
             steps.append(SetState(color))
             current = color
-        toured, position = _tour_units(paths.paths, members, ends, position)
-        steps.extend(toured)
+        if units:
+            unit_starts = np.flatnonzero(new_unit[a : a + units]) + a
+            x, y = _walk_units(layer, unit_starts.tolist(), a + units, x, y, steps)
+        if a + units < c:
+            x, y = _tour(layer, a + units, c, x, y, steps)
     plan.steps = steps
     return plan
 
 
-class _Ends:
-    """The first and last points of a layer's paths, gathered once per layer.
+class _Layer:
+    """A layer's paths (already in group order) gathered into flat arrays.
 
     Attributes:
-        closed, group: each path's ``closed`` and ``group`` (Python lists).
-        sx, sy, ex, ey: first and last point coordinates (Python lists of floats, mm).
+        paths: the paths.
+        xy: every path's points, concatenated, as complex ``x + iy`` (mm).
+        offsets: ``(n + 1,)`` path ``i`` owns ``xy[offsets[i]:offsets[i + 1]]`` (Python list).
+        closed: each path's ``closed`` (Python list).
+        start, end: first and last point of each path (Python lists of complex, mm).
+        entry_xy: entries of the loose paths (complex, mm), path by path, in point order.
+        entry_path: path index of each entry.
+        entry_reverses: True for the last point of an open path (entering there reverses it).
+        entry_offsets: ``(n + 1,)`` path ``i`` owns entries ``entry_offsets[i]:entry_offsets[i + 1]``.
     """
 
-    def __init__(self, paths: Sequence[Path]) -> None:
+    def __init__(self, paths: list[Path], loose: np.ndarray) -> None:
         n = len(paths)
+        self.paths = paths
         arrays = list(map(attrgetter("points"), paths))
+        sizes = np.fromiter(map(len, arrays), dtype=np.int64, count=n)
         offsets = np.zeros(n + 1, dtype=np.int64)
-        np.cumsum(np.fromiter(map(len, arrays), dtype=np.int64, count=n), out=offsets[1:])
-        points = np.concatenate(arrays)
-        self.closed = list(map(attrgetter("closed"), paths))
-        self.group = list(map(attrgetter("group"), paths))
-        self.sx, self.sy = points[offsets[:-1]].T.tolist()
-        self.ex, self.ey = points[offsets[1:] - 1].T.tolist()
+        np.cumsum(sizes, out=offsets[1:])
+        xy = np.ascontiguousarray(np.concatenate(arrays), dtype=np.float64).view(np.complex128).ravel()
+        closed = np.fromiter(map(attrgetter("closed"), paths), dtype=bool, count=n)
+        first, last = offsets[:-1], offsets[1:] - 1
+        self.xy = xy
+        self.offsets = offsets.tolist()
+        self.closed = closed.tolist()
+        self.start = xy[first].tolist()
+        self.end = xy[last].tolist()
 
+        keep = np.zeros(xy.size, dtype=bool)
+        open_loose = loose & ~closed
+        keep[first[open_loose]] = True
+        keep[last[open_loose]] = True
+        ring = np.flatnonzero(loose & closed)
+        if ring.size:
+            # Closed paths: keep a vertex each time the arc length enters a new bucket.
+            ring_sizes = sizes[ring]
+            ring_first = np.zeros(ring.size, dtype=np.int64)
+            np.cumsum(ring_sizes[:-1], out=ring_first[1:])
+            vertex = np.arange(int(ring_sizes.sum())) + np.repeat(first[ring] - ring_first, ring_sizes)
+            steps = np.abs(np.diff(xy[vertex], prepend=xy[vertex[:1]]))
+            steps[ring_first] = 0.0
+            arc = np.cumsum(steps)
+            arc -= np.repeat(arc[ring_first], ring_sizes)
+            bucket = np.floor(arc / CLOSED_ENTRY_SPACING_MM)
+            new_bucket = np.r_[True, bucket[1:] != bucket[:-1]]
+            new_bucket[ring_first] = True
+            keep[vertex[new_bucket]] = True
+        entry_vertex = np.flatnonzero(keep)
+        entry_path = np.searchsorted(offsets, entry_vertex, side="right") - 1
+        self.entry_xy = xy[entry_vertex]
+        self.entry_path = entry_path
+        self.entry_reverses = (entry_vertex == last[entry_path]) & ~closed[entry_path]
+        self.entry_offsets = np.searchsorted(entry_path, np.arange(n + 1)).tolist()
 
-def _tour_units(
-    paths: Sequence[Path], members: np.ndarray, ends: _Ends, position: np.ndarray
-) -> tuple[list[Path], np.ndarray]:
-    """Print the units of grouped paths among ``paths[members]`` (nearest unit first, each
-    in its list order), then tour the ungrouped ones greedily. Returns the oriented paths
-    and the final XY."""
-    units: dict[int, list[int]] = {}
-    loose: list[int] = []
-    group = ends.group
-    for i in members.tolist():
-        (units.setdefault(group[i], []) if group[i] >= 0 else loose).append(i)
-    out: list[Path] = []
-    x, y = float(position[0]), float(position[1])
-    pending = list(units.values())
-    while pending:
-        gaps = [_entry_distance(paths, ends, unit[0], x, y) for unit in pending]
-        x, y = _walk_unit(paths, pending.pop(int(np.argmin(gaps))), ends, x, y, out)
-    position = np.array([x, y])
-    if not loose:
-        return out, position
-    toured, position = travel_tour([paths[i] for i in loose], position)
-    return out + toured, position
-
-
-def _entry_distance(paths: Sequence[Path], ends: _Ends, i: int, x: float, y: float) -> float:
-    """Distance (mm) from ``(x, y)`` to the nearest entry of path ``i`` (any vertex if
-    closed, an end if open)."""
-    if ends.closed[i]:
-        d = paths[i].points - (x, y)
-        return float(np.sqrt(np.min(np.einsum("ij,ij->i", d, d))))
-    return min(math.hypot(ends.sx[i] - x, ends.sy[i] - y), math.hypot(ends.ex[i] - x, ends.ey[i] - y))
-
-
-def _walk_unit(
-    paths: Sequence[Path], unit: list[int], ends: _Ends, x: float, y: float, out: list[Path]
-) -> tuple[float, float]:
-    """Append the paths ``unit`` to ``out`` in order, each rotated (closed) or reversed
-    (open) to start at its entry nearest the nozzle; returns the final nozzle XY (mm)."""
-    sx, sy, ex, ey, closed = ends.sx, ends.sy, ends.ex, ends.ey, ends.closed
-    for i in unit:
-        path = paths[i]
-        if closed[i]:
+    def enter_closed(self, i: int, at: complex) -> tuple[Path, complex]:
+        """Closed path ``i`` rotated to start at its vertex nearest ``at``, and that vertex."""
+        ring = self.xy[self.offsets[i] : self.offsets[i + 1]]
+        vertex = int(np.abs(ring - at).argmin())
+        path = self.paths[i]
+        if vertex:
             points = path.points
-            d = points - (x, y)
-            vertex = int(np.argmin(np.einsum("ij,ij->i", d, d)))
-            if vertex:
-                path = _moved(path, np.concatenate((points[vertex:], points[:vertex])))
-            x, y = float(points[vertex, 0]), float(points[vertex, 1])
-        elif (ex[i] - x) ** 2 + (ey[i] - y) ** 2 < (sx[i] - x) ** 2 + (sy[i] - y) ** 2:
-            path = _moved(path, path.points[::-1])
-            x, y = sx[i], sy[i]
+            path = _moved(path, np.concatenate((points[vertex:], points[:vertex])))
+        return path, complex(ring[vertex])
+
+    def entry_distances(self, indices: np.ndarray, at: complex) -> np.ndarray:
+        """Distance (mm) from ``at`` to the nearest entry of each path in ``indices`` (any
+        vertex if closed, an end if open)."""
+        start = np.array([self.start[i] for i in indices.tolist()])
+        end = np.array([self.end[i] for i in indices.tolist()])
+        dist = np.minimum(np.abs(start - at), np.abs(end - at))
+        closed = np.array([self.closed[i] for i in indices.tolist()], dtype=bool)
+        ring = indices[closed]
+        if ring.size:
+            offsets = np.asarray(self.offsets)
+            sizes = offsets[ring + 1] - offsets[ring]
+            ring_first = np.zeros(ring.size, dtype=np.int64)
+            np.cumsum(sizes[:-1], out=ring_first[1:])
+            vertex = np.arange(int(sizes.sum())) + np.repeat(offsets[ring] - ring_first, sizes)
+            dist[closed] = np.minimum.reduceat(np.abs(self.xy[vertex] - at), ring_first)
+        return dist
+
+
+def _walk_units(layer: _Layer, unit_starts: list[int], stop: int, x: float, y: float, out: list[Step]) -> tuple[float, float]:
+    """Print the units starting at ``unit_starts`` (the last ends at ``stop``), nearest
+    first unit first, each in its list order, every path rotated (closed) or reversed
+    (open) to start nearest the nozzle. Appends to ``out``; returns the final XY (mm)."""
+    at = complex(x, y)
+    pending = list(zip(unit_starts, unit_starts[1:] + [stop]))
+    while pending:
+        pick = 0
+        if len(pending) > 1:
+            firsts = np.array([u[0] for u in pending])
+            pick = int(layer.entry_distances(firsts, at).argmin())
+        a, b = pending.pop(pick)
+        at = _walk(layer, a, b, at, out)
+    return at.real, at.imag
+
+
+def _walk(layer: _Layer, a: int, b: int, at: complex, out: list[Step]) -> complex:
+    """Append paths ``a..b-1`` in order, each oriented to start nearest the nozzle; returns
+    the final nozzle position."""
+    paths, closed, start, end = layer.paths, layer.closed, layer.start, layer.end
+    for i in range(a, b):
+        if closed[i]:
+            path, at = layer.enter_closed(i, at)
+        elif abs(end[i] - at) < abs(start[i] - at):
+            path, at = _moved(paths[i], paths[i].points[::-1]), start[i]
         else:
-            x, y = ex[i], ey[i]
+            path, at = paths[i], end[i]
         out.append(path)
-    return x, y
+    return at
+
+
+def _tour(layer: _Layer, a: int, b: int, x: float, y: float, out: list[Step]) -> tuple[float, float]:
+    """Greedy nearest-entry tour of the loose paths ``a..b-1``; appends the oriented paths
+    to ``out`` and returns the final XY (mm)."""
+    e0, e1 = layer.entry_offsets[a], layer.entry_offsets[b]
+    search = (_TreeSearch if b - a >= TREE_MIN_PATHS else _ScanSearch)(layer, e0, e1)
+    entry_path = layer.entry_path[e0:e1].tolist()
+    entry_reverses = layer.entry_reverses[e0:e1].tolist()
+    entry_offsets = layer.entry_offsets
+    paths, start, end = layer.paths, layer.start, layer.end
+    at = complex(x, y)
+    at_entry = -1
+    for _ in range(b - a):
+        chosen = search.nearest(at, at_entry)
+        i = entry_path[chosen]
+        search.remove(entry_offsets[i] - e0, entry_offsets[i + 1] - e0)
+        if layer.closed[i]:
+            path, at = layer.enter_closed(i, at)
+            at_entry = -1
+        elif entry_reverses[chosen]:
+            path, at = _moved(paths[i], paths[i].points[::-1]), start[i]
+            at_entry = chosen - 1
+        else:
+            path, at = paths[i], end[i]
+            at_entry = chosen + 1
+        out.append(path)
+    return at.real, at.imag
+
+
+class _ScanSearch:
+    """Nearest unprinted entry by one numpy pass over a group's entries (printed ones are
+    moved to infinity)."""
+
+    def __init__(self, layer: _Layer, e0: int, e1: int) -> None:
+        self.xy = layer.entry_xy[e0:e1].copy()
+
+    def nearest(self, at: complex, at_entry: int) -> int:
+        """Index (in the group) of the entry nearest ``at``."""
+        return int(np.abs(self.xy - at).argmin())
+
+    def remove(self, lo: int, hi: int) -> None:
+        """Entries ``lo..hi-1`` (one path's) are printed."""
+        self.xy[lo:hi] = _FAR
+
+
+class _TreeSearch:
+    """Nearest unprinted entry from a :class:`scipy.spatial.cKDTree` of a group's entries.
+
+    Each entry's nearest neighbours are precomputed in one batched query: after an open
+    path the nozzle stands on an entry, and the next entry is usually the first unprinted
+    one in that short list. Otherwise (after a closed path, or all those printed) a live
+    query: one numpy pass when few entries are left, else the tree asked for
+    :data:`FALLBACK_K` entries, then more; the tree is rebuilt over the unprinted entries
+    once it holds twice as many as are left.
+    """
+
+    def __init__(self, layer: _Layer, e0: int, e1: int) -> None:
+        from scipy.spatial import cKDTree
+
+        self.cKDTree = cKDTree
+        self.xy = layer.entry_xy[e0:e1].copy()
+        self.points = np.column_stack((self.xy.real, self.xy.imag))
+        self.printed = np.zeros(self.xy.size, dtype=bool)
+        self.printed_list = [False] * self.xy.size
+        self.alive = self.xy.size
+        self.tree = cKDTree(self.points)
+        self.tree_ids = np.arange(self.xy.size)
+        k = min(NEIGHBOURS, self.xy.size)
+        _, nearest = self.tree.query(self.points, k=k)
+        self.neighbours = nearest.reshape(self.xy.size, k).tolist()
+
+    def nearest(self, at: complex, at_entry: int) -> int:
+        """Index (in the group) of the unprinted entry nearest ``at`` (the position of
+        entry ``at_entry`` when that is not -1)."""
+        if at_entry >= 0:
+            printed = self.printed_list
+            for candidate in self.neighbours[at_entry]:
+                if not printed[candidate]:
+                    return candidate
+        if self.tree_ids.size > 2 * self.alive or self.alive <= BRUTE_FORCE_ENTRIES:
+            self._drop_printed()
+        if self.alive <= BRUTE_FORCE_ENTRIES:
+            return int(self.tree_ids[np.abs(self.xy[self.tree_ids] - at).argmin()])
+        size = self.tree_ids.size
+        k = min(FALLBACK_K, size)
+        while True:
+            _, found = self.tree.query((at.real, at.imag), k=k)
+            ids = self.tree_ids[np.atleast_1d(found)]
+            alive = np.flatnonzero(~self.printed[ids])
+            if alive.size:
+                return int(ids[alive[0]])
+            k = min(8 * k, size)
+
+    def remove(self, lo: int, hi: int) -> None:
+        """Entries ``lo..hi-1`` (one path's) are printed."""
+        self.printed[lo:hi] = True
+        self.printed_list[lo:hi] = [True] * (hi - lo)
+        self.alive -= hi - lo
+
+    def _drop_printed(self) -> None:
+        """Keep only unprinted entries in the tree (and in ``tree_ids``)."""
+        if self.tree_ids.size == self.alive:
+            return
+        self.tree_ids = self.tree_ids[~self.printed[self.tree_ids]]
+        if self.alive > BRUTE_FORCE_ENTRIES:
+            self.tree = self.cKDTree(self.points[self.tree_ids])
 
 
 def _moved(path: Path, points: np.ndarray) -> Path:
@@ -212,139 +381,10 @@ def travel_tour(paths: Sequence[Path], start_xy: np.ndarray) -> tuple[list[Path]
     Open paths may be reversed, closed paths rotated, to start at the entry nearest to
     the nozzle. Returns the oriented paths in printing order and the final nozzle XY.
     """
-    n = len(paths)
-    if n == 0:
-        return [], np.asarray(start_xy, dtype=np.float64)
-    entries = _Entries(paths)
-    tour = _GreedyTour(entries)
-    out: list[Path] = []
     position = np.asarray(start_xy, dtype=np.float64).reshape(2)
-    at_entry = -1
-    for _ in range(n):
-        chosen = tour.nearest_from_entry(at_entry) if at_entry >= 0 else -1
-        if chosen < 0:
-            chosen = tour.nearest_from_point(position)
-        index = entries.path_of[chosen]
-        tour.visit(index)
-        path = paths[index]
-        if path.closed:
-            points = path.points
-            vertex = int(np.argmin(np.einsum("ij,ij->i", points - position, points - position)))
-            if vertex:
-                path = _moved(path, np.roll(points, -vertex, axis=0))
-            position = path.points[0]
-            at_entry = -1
-        else:
-            if entries.reverses[chosen]:
-                path = _moved(path, path.points[::-1])
-            at_entry = entries.partner[chosen]
-            position = path.points[-1]
-        out.append(path)
-    return out, position
-
-
-class _Entries:
-    """Where each path can be entered: both ends of open paths, spaced vertices of closed ones.
-
-    Attributes:
-        xy: ``(M, 2)`` entry positions, mm.
-        path_of: path index of each entry (Python list).
-        reverses: for open-path entries, True at the path's last point (Python list).
-        partner: for open-path entries, the entry at the other end; -1 for closed paths.
-        count: entries per path (Python list).
-    """
-
-    def __init__(self, paths: Sequence[Path]) -> None:
-        n = len(paths)
-        closed = np.fromiter((p.closed for p in paths), dtype=bool, count=n)
-        sizes = np.fromiter((len(p.points) for p in paths), dtype=np.int64, count=n)
-        allpts = np.concatenate([p.points for p in paths])
-        first = np.concatenate([[0], np.cumsum(sizes)[:-1]])
-        last = first + sizes - 1
-
-        open_idx = np.flatnonzero(~closed)
-        ends = np.empty((2 * open_idx.size, 2))
-        ends[0::2] = allpts[first[open_idx]]
-        ends[1::2] = allpts[last[open_idx]]
-        open_path = np.repeat(open_idx, 2)
-        open_reverse = np.tile([False, True], open_idx.size)
-        partner = np.arange(2 * open_idx.size) ^ 1
-
-        # Closed paths: keep a vertex each time the arc length enters a new bucket.
-        owner = np.repeat(np.arange(n), sizes)
-        steps = np.hypot(*np.diff(allpts, axis=0, prepend=allpts[:1]).T)
-        steps[first] = 0.0
-        arc = np.cumsum(steps)
-        arc -= np.repeat(arc[first], sizes)
-        bucket = np.floor(arc / CLOSED_ENTRY_SPACING_MM).astype(np.int64)
-        keep = closed[owner]
-        keep[1:] &= (bucket[1:] != bucket[:-1]) | (owner[1:] != owner[:-1])
-        closed_xy, closed_path = allpts[keep], owner[keep]
-
-        self.xy = np.concatenate([ends, closed_xy])
-        path_of = np.concatenate([open_path, closed_path])
-        self.path_of = path_of.tolist()
-        self.path_of_array = path_of
-        self.reverses = np.concatenate([open_reverse, np.zeros(closed_path.size, dtype=bool)]).tolist()
-        self.partner = np.concatenate([partner, np.full(closed_path.size, -1)]).tolist()
-        self.count = np.bincount(path_of, minlength=n).tolist()
-
-
-class _GreedyTour:
-    """Nearest-unvisited-entry queries for a greedy tour over :class:`_Entries`."""
-
-    def __init__(self, entries: _Entries) -> None:
-        self.entries = entries
-        self.visited = [False] * len(entries.count)
-        self.visited_array = np.zeros(len(entries.count), dtype=bool)
-        self.alive = sum(entries.count)
-        self.tree = cKDTree(entries.xy)
-        self.tree_ids = np.arange(entries.xy.shape[0])
-        k = min(NEIGHBOURS, entries.xy.shape[0])
-        _, nearest = self.tree.query(entries.xy, k=k)
-        self.neighbours = nearest.reshape(entries.xy.shape[0], k).tolist()
-
-    def visit(self, path_index: int) -> None:
-        self.visited[path_index] = True
-        self.visited_array[path_index] = True
-        self.alive -= self.entries.count[path_index]
-
-    def nearest_from_entry(self, entry: int) -> int:
-        """The nearest unvisited entry among ``entry``'s precomputed neighbours, or -1."""
-        path_of, visited = self.entries.path_of, self.visited
-        for candidate in self.neighbours[entry]:
-            if not visited[path_of[candidate]]:
-                return candidate
-        return -1
-
-    def nearest_from_point(self, xy: np.ndarray) -> int:
-        """The nearest unvisited entry to ``xy``.
-
-        Few entries left: one vectorized distance computation over them. Otherwise a
-        tree query, growing ``k`` past visited entries; the tree is rebuilt over the
-        unvisited entries once it holds twice as many entries as are left.
-        """
-        if self.tree_ids.size > 2 * self.alive or self.alive <= BRUTE_FORCE_ENTRIES:
-            self._drop_visited()
-        if self.alive <= BRUTE_FORCE_ENTRIES:
-            d = self.entries.xy[self.tree_ids] - xy
-            return int(self.tree_ids[np.argmin(np.einsum("ij,ij->i", d, d))])
-        size = self.tree_ids.size
-        visited = self.visited_array
-        k = min(FALLBACK_K, size)
-        while True:
-            _, found = self.tree.query(xy, k=k)
-            ids = self.tree_ids[np.atleast_1d(found)]
-            alive = np.flatnonzero(~visited[self.entries.path_of_array[ids]])
-            if alive.size:
-                return int(ids[alive[0]])
-            k = min(8 * k, size)
-
-    def _drop_visited(self) -> None:
-        """Keep only unvisited entries in the tree (and in ``tree_ids``)."""
-        if self.tree_ids.size == self.alive:
-            return
-        alive = ~self.visited_array[self.entries.path_of_array[self.tree_ids]]
-        self.tree_ids = self.tree_ids[alive]
-        if self.alive > BRUTE_FORCE_ENTRIES:
-            self.tree = cKDTree(self.entries.xy[self.tree_ids])
+    if not paths:
+        return [], position
+    out: list[Step] = []
+    layer = _Layer(list(paths), np.ones(len(paths), dtype=bool))
+    x, y = _tour(layer, 0, len(paths), float(position[0]), float(position[1]), out)
+    return out, np.array([x, y])
