@@ -3,8 +3,11 @@
 Top skin of a layer = its outline minus the intersection of the outlines of the
 ``top_layers`` layers above it; when fewer than ``top_layers`` layers exist above (the
 top of the part), that intersection is empty and the whole layer is top skin. Bottom
-skins likewise with the layers below (so the first layer is entirely solid). Geometry
-is shapely in the bed frame, mm.
+skins likewise with the layers below (so the first layer is entirely solid). Only the
+inner area (inside the walls) is split, so the skins are computed within it directly:
+the neighbours, simplified like the walls' outline, are intersected with the inner area
+(nothing to compute where they cover it, the usual case inside a part). Geometry is
+shapely in the bed frame, mm.
 """
 
 from __future__ import annotations
@@ -18,24 +21,37 @@ import shapely
 from fgslice.settings import Settings
 from fgslice.toolpaths.infill import concentric, rectilinear
 from fgslice.toolpaths.paths import Path, Role
+from fgslice.toolpaths.simplify import simplify_polygons
+from fgslice.toolpaths.walls import OUTLINE_TOLERANCE
 
 
-def exposed(outline, neighbours: Sequence, count: int):
-    """Part of ``outline`` not covered by all of the ``count`` nearest ``neighbours``.
+def covered(region, neighbours: Sequence, count: int):
+    """Part of ``region`` covered by all of the ``count`` nearest ``neighbours``.
 
-    ``neighbours`` are the outlines of the adjacent layers, nearest first; missing
-    layers count as empty, so the whole outline is exposed when fewer than ``count``
-    are given. ``count = 0`` exposes nothing. Neighbours that cover the outline (the
-    usual case inside a part) are recognised by a predicate, without any overlay.
+    ``neighbours`` are the outlines of the adjacent layers, nearest first (simplified to
+    :data:`~fgslice.toolpaths.walls.OUTLINE_TOLERANCE` here); missing layers count as
+    empty, so nothing is covered when fewer than ``count`` are given. ``count = 0``
+    covers everything (``region`` itself is returned). Neighbours that cover ``region``
+    are recognised by a predicate, without any overlay, and ``region`` itself is then
+    returned too (as for an empty ``region``).
     """
-    if count == 0:
-        return shapely.Polygon()
+    if count == 0 or region.is_empty:
+        return region
     if len(neighbours) < count:
-        return outline
-    near = np.asarray(list(neighbours[:count]), dtype=object)
-    if np.all(shapely.covers(near, outline)):
         return shapely.Polygon()
-    return shapely.difference(outline, shapely.intersection_all(near))
+    near = simplify_polygons(np.asarray(list(neighbours[:count]), dtype=object), OUTLINE_TOLERANCE)
+    if np.all(shapely.covers(near, region)):
+        return region
+    return shapely.intersection_all(np.r_[near, np.asarray([region], dtype=object)])
+
+
+def _minus(region, part):
+    """``region`` minus ``part`` where ``part`` is :func:`covered`'s result for ``region``."""
+    if part is region:
+        return shapely.Polygon()
+    if part.is_empty:
+        return region
+    return shapely.difference(region, part)
 
 
 @dataclass(frozen=True)
@@ -54,21 +70,22 @@ class InnerAreas:
 
 
 def split_inner(inner, outline, below: Sequence, above: Sequence, settings: Settings) -> InnerAreas:
-    """Split ``inner`` (the area inside the walls) into top skin, solid skin and sparse.
+    """Split ``inner`` (the area inside the walls of ``outline``) into top skin, solid
+    skin and sparse.
 
+    With ``A`` the part of ``inner`` covered by the ``top_layers`` outlines above and
+    ``B`` the part of ``A`` covered by the ``bottom_layers`` below (:func:`covered`):
+    top = ``inner - A``, solid = ``A - B``, sparse = ``B`` (``inner`` lies within
+    ``outline``, so this equals the outline's exposed parts intersected with ``inner``).
     A density of 100 % makes everything solid (role SOLID_INFILL where not top skin).
     """
     empty = shapely.Polygon()
-    top = exposed(outline, above, settings.top_layers)
-    bottom = exposed(outline, below, settings.bottom_layers)
-    top = empty if top.is_empty else shapely.intersection(inner, top)
+    under_above = covered(inner, above, settings.top_layers)
+    top = _minus(inner, under_above)
     if settings.infill_density >= 100.0:
-        return InnerAreas(top, shapely.difference(inner, top) if not top.is_empty else inner, empty)
-    bottom = empty if bottom.is_empty else shapely.intersection(inner, bottom)
-    if top.is_empty and bottom.is_empty:
-        return InnerAreas(empty, empty, inner)
-    solid = shapely.difference(bottom, top)
-    return InnerAreas(top, solid, shapely.difference(inner, shapely.union(top, bottom)))
+        return InnerAreas(top, under_above, empty)
+    sparse = covered(under_above, below, settings.bottom_layers)
+    return InnerAreas(top, _minus(under_above, sparse), sparse)
 
 
 def fill_inner(areas: InnerAreas, layer_index: int, settings: Settings) -> list[Path]:

@@ -1,0 +1,68 @@
+"""Skins: the inner area split into top, solid and sparse by the neighbouring outlines."""
+
+import numpy as np
+import pytest
+import shapely
+
+from fgslice.settings import Settings
+from fgslice.toolpaths.skins import covered, split_inner
+from fgslice.toolpaths.walls import make_walls
+
+W, H = 0.4, 0.2
+
+
+def plate():
+    return shapely.MultiPolygon([shapely.box(0, 0, 60, 40).difference(shapely.Point(30, 20).buffer(6, quad_segs=32))])
+
+
+def split(below, above, density=20.0):
+    outline = plate()
+    inner = make_walls(outline, 2, W, H).inner
+    settings = Settings(strategy=1, walls=2, infill_density=density, top_layers=2, bottom_layers=2)
+    return inner, split_inner(inner, outline, below, above, settings)
+
+
+def areas(split_areas):
+    return np.array([split_areas.top.area, split_areas.solid.area, split_areas.sparse.area])
+
+
+def test_inside_a_part_everything_is_sparse():
+    inner, got = split([plate()] * 2, [plate()] * 2)
+    assert got.top.is_empty and got.solid.is_empty
+    assert got.sparse.equals(inner)
+
+
+def test_parts_partition_the_inner_area_by_the_neighbours():
+    small = shapely.box(15, 5, 45, 35)  # smaller layers above: a top ring
+    shifted = shapely.box(-5, -5, 40, 45)  # shifted layers below: a bottom strip
+    inner, got = split([plate(), shifted], [small, small])
+    top, solid, sparse = areas(got)
+    assert top + solid + sparse == pytest.approx(inner.area, rel=1e-9)
+    assert shapely.union_all([got.top, got.solid, got.sparse]).symmetric_difference(inner).area < 1e-6
+    assert top == pytest.approx(inner.difference(small).area, rel=1e-6)
+    assert sparse == pytest.approx(inner.intersection(small).intersection(shifted).area, rel=1e-6)
+    assert solid == pytest.approx(inner.intersection(small).difference(shifted).area, rel=1e-6)
+    assert solid > 10 and top > 10 and sparse > 10
+
+
+def test_missing_layers_make_everything_skin():
+    inner, got = split([], [plate()] * 2)  # first layer: all bottom skin
+    assert got.solid.equals(inner) and got.top.is_empty and got.sparse.is_empty
+    inner, got = split([plate()] * 2, [plate()])  # one layer below the top: all top skin
+    assert got.top.equals(inner) and got.solid.is_empty and got.sparse.is_empty
+
+
+def test_full_density_is_solid_below_the_top_skin():
+    small = shapely.box(15, 5, 45, 35)
+    inner, got = split([], [small, small], density=100.0)
+    assert got.sparse.is_empty
+    assert got.top.area == pytest.approx(inner.difference(small).area, rel=1e-6)
+    assert got.solid.area == pytest.approx(inner.intersection(small).area, rel=1e-6)
+
+
+def test_covered_counts_only_the_nearest_layers():
+    region = shapely.box(0, 0, 10, 10)
+    assert covered(region, [shapely.box(0, 0, 5, 10), shapely.Polygon()], 1).area == pytest.approx(50)
+    assert covered(region, [region, shapely.box(0, 0, 5, 10)], 1) is region
+    assert covered(region, [region], 0) is region
+    assert covered(region, [region], 2).is_empty
