@@ -232,3 +232,43 @@ def test_thumbnail_block_prusaslicer_format():
     assert "".join(line[2:] for line in body) == encoded
     with pytest.raises(ValueError, match="not a PNG"):
         thumbnail_block(b"GIF89a", 16, 16)
+
+
+def test_prepared_bodies_write_the_same_text_as_the_writer():
+    import copy
+    import pickle
+
+    from fgslice.machine.gcode import prepare_bodies
+    from fgslice.planning.lookahead import apply_lookahead
+
+    settings = load_settings("marlin-mixing")
+    plain = [layer(i) for i in range(3)]
+    prepared = pickle.loads(pickle.dumps(copy.deepcopy(plain)))
+    for plan in prepared:
+        prepare_bodies(plan, settings)
+    prepared = pickle.loads(pickle.dumps(prepared))  # as a worker sends them
+    # an extra path no body was prepared for
+    prepared[1].steps.insert(2, Path(ring(60, 60, 3), Role.SKIRT, -1, 0.4, 0.2, closed=True))
+    plain[1].steps.insert(2, Path(ring(60, 60, 3), Role.SKIRT, -1, 0.4, 0.2, closed=True))
+    assert write(plain)[0] == write(prepared)[0]
+    # look-ahead splits prepared paths: the pieces are written from their points
+    shifted_plain = list(apply_lookahead(plain, 7.0))
+    shifted = list(apply_lookahead(prepared, 7.0))
+    assert any(plan.prepared and any(p not in plan.prepared.rows for p in plan.paths) for plan in shifted)
+    assert write(shifted_plain)[0] == write(shifted)[0]
+
+
+def test_each_path_writes_its_exact_filament():
+    plans = [layer(i) for i in range(2)]
+    text, stats, settings = write(plans)
+    program = read_gcode(text)
+    area = np.pi * settings.filament_diameter**2 / 4
+    lines = text.splitlines()
+    # sum E of each run of extruding moves between non-move lines = one path
+    paths = [p for plan in plans for p in plan.paths]
+    written = [np.round(p.vertices, 3) for p in paths]  # the coordinates as written
+    exact = [np.hypot(*np.diff(v, axis=0).T).sum() * bead_area(p.width, p.height) / area for v, p in zip(written, paths)]
+    extruding = (program.length > 0) & (program.e > 0)
+    runs = np.split(program.e[extruding], np.flatnonzero(np.diff(program.line[extruding]) > 1) + 1)
+    assert len(runs) == len(paths) and len(lines) > len(paths)
+    assert np.allclose([r.sum() for r in runs], exact, rtol=0, atol=6e-6)

@@ -6,10 +6,12 @@ Stages (one module each; this file only wires them):
    (``slicing.palette``), the dialect (``machine.dialects``);
 2. per layer, in parallel (``executor.map_ordered``): outline and color faces
    (``slicing.regions``), toolpaths (``toolpaths.strategy1`` / ``strategy2``), color and
-   travel order (``planning.order``); strategy 1 first sections every layer so that each
+   travel order (``planning.order``) and the G-code moves of every path
+   (``machine.gcode.prepare_bodies``); strategy 1 first sections every layer so that each
    layer gets its neighbours' outlines for top and bottom skins;
 3. serially, streaming: purge towers (``planning.purge``), look-ahead of state changes
-   (``planning.lookahead``), the G-code writer (``machine.gcode``);
+   (``planning.lookahead``), the G-code writer (``machine.gcode``), which adds travels,
+   retractions, annotations and state changes around the prepared moves;
 4. the written file is verified (``machine.verify``) before it replaces the output.
 
 Output is byte-identical whatever the number of workers: every per-layer result depends
@@ -33,7 +35,7 @@ from fgslice.errors import SliceError
 from fgslice.executor import default_jobs, map_ordered
 from fgslice.guards import check_resources
 from fgslice.machine.dialects import make_dialect
-from fgslice.machine.gcode import GcodeWriter
+from fgslice.machine.gcode import GcodeWriter, prepare_bodies
 from fgslice.machine.verify import format_faults, verify_gcode
 from fgslice.output import atomic_output
 from fgslice.planning.lookahead import apply_lookahead, apply_time_lead
@@ -113,7 +115,7 @@ def _section_task(job: SliceJob, index: int) -> shapely.Geometry:
 
 
 def _layer_task(job: SliceJob, index: int) -> LayerResult:
-    """Regions, toolpaths and order of one layer."""
+    """Regions, toolpaths and order of one layer, and its paths' G-code moves."""
     s = job.settings
     i, z_top, height = job.layers[index]
     if s.strategy == 2:
@@ -131,6 +133,7 @@ def _layer_task(job: SliceJob, index: int) -> LayerResult:
         paths.paths = skirt_paths(regions.outline, s) + paths.paths
     colors = len({p.color for p in paths.paths if p.color >= 0})
     plan = order_layer(paths, job.palette.order_for_layer(i), job.start_xy, s.feature_order)
+    prepare_bodies(plan, s)
     return LayerResult(plan=plan, short_pieces=short, uncovered_mm2=paths.uncovered_mm2, colors=colors)
 
 

@@ -6,8 +6,8 @@ at a time (nothing of earlier layers is kept), then a footer. Conventions:
 * relative extrusion (``M83``); for a segment of XY length ``L`` (mm) of a path of
   width ``w`` and height ``h``, ``E = L * bead_area(w, h) / (pi d^2 / 4)`` mm of filament
   (``d`` = ``filament_diameter``). E is rounded to 5 decimals by diffusing the rounding
-  error along the print (each E is the difference of the rounded running total), so the
-  written total equals the exact total to 1e-5 mm.
+  error along each path (each E is the difference of the path's rounded running total),
+  so every path's written E equals its exact E to 5e-6 mm, whatever was printed before.
 * coordinates have 3 decimals, trailing zeros dropped; moves that round to zero length
   are not written.
 * PrusaSlicer's annotations: ``;LAYER_CHANGE``, ``;Z:``, ``;HEIGHT:``, ``;TYPE:<role>``
@@ -24,6 +24,13 @@ integer digits and its decimals, each looked up in a byte table, into one byte m
 unprinted bytes are 0 and dropped at once (see :func:`format_lines`), so no Python object
 is made per vertex.
 
+A path's moves (its *body*) depend only on the path, so they are formatted where the
+layer is planned, in the per-layer workers (:func:`prepare_bodies` attaches a
+:class:`PathBodies` to the plan); the writer then only adds what depends on the print so
+far — travels, retractions, annotations, feed rates, state changes — and joins the
+texts. Paths without a prepared body (purge lines, paths split by look-ahead, plans
+built elsewhere) are formatted by the writer the same way.
+
 The statistics returned by :meth:`GcodeWriter.finish` are documented in ``docs/gcode.md``.
 The time estimate is the sum of move lengths divided by their feed rates (no
 acceleration), plus the dialect's fixed ``change_time_s`` per state change.
@@ -33,6 +40,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable
+from dataclasses import dataclass
 from functools import cache
 from operator import attrgetter
 from datetime import datetime, timezone
@@ -44,7 +52,7 @@ import numpy as np
 from fgslice.errors import SettingsError
 from fgslice.machine.dialects import PLACEHOLDER, Dialect, PaletteLike
 from fgslice.machine.thumbnails import thumbnail_block
-from fgslice.planning.plan import LayerPlan, SetState
+from fgslice.planning.plan import LayerPlan, Prepared, SetState
 from fgslice.settings import Settings
 from fgslice.toolpaths.paths import Path, Role, bead_area
 
@@ -179,6 +187,94 @@ def _split(text: str, offsets: np.ndarray, bounds: np.ndarray) -> list[str]:
     return [text[a:b] for a, b in zip(cuts[:-1], cuts[1:])]
 
 
+@dataclass
+class PathBodies:
+    """The moves of a run of paths, formatted, with what the writer needs to know of them.
+
+    Row ``i`` is path ``i``; a path whose moves all round to zero length has no moves
+    (``length`` 0). Coordinates are the written ones (rounded to 0.001 mm).
+
+    Attributes:
+        text: the ``G1 X Y E`` lines of all paths, in row order.
+        bounds: ``(n + 1,)`` character offsets of each path's lines in ``text``.
+        start: ``(n, 2)`` first point of each path, mm.
+        end: ``(n, 2)`` last point written, mm.
+        low, high: ``(n, 2)`` corners of the box around the path's written points, mm.
+        e: ``(n,)`` filament written, mm.
+        length: ``(n,)`` XY length of the written moves, mm.
+    """
+
+    text: str
+    bounds: np.ndarray
+    start: np.ndarray
+    end: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    e: np.ndarray
+    length: np.ndarray
+
+
+def format_bodies(paths: list[Path], filament_area: float) -> PathBodies:
+    """The moves of ``paths`` in bulk (E per segment from the bead area, rounding error
+    diffused along each path; see the module notes). ``filament_area`` in mm^2."""
+    arrays, closed, widths, heights = zip(*map(attrgetter("points", "closed", "width", "height"), paths))
+    n = len(paths)
+    sizes = np.fromiter(map(len, arrays), dtype=np.int64, count=n)
+    closed = np.array(closed, dtype=bool)
+    counts = sizes + closed  # a closed path's vertices end at its first point again
+    first = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(counts, out=first[1:])
+    source = np.repeat(np.cumsum(sizes) - sizes - first[:-1], counts) + np.arange(first[-1])
+    source[first[1:][closed] - 1] = source[first[:-1][closed]]
+    pts = np.round(np.concatenate(arrays)[source], 3) + 0.0
+    seg = np.hypot(*np.diff(pts, axis=0).T)
+    inside = np.ones(len(seg), dtype=bool)
+    inside[first[1:-1] - 1] = False
+    moves = np.flatnonzero(inside & (seg > 0))
+    move_path = np.repeat(np.arange(n), counts)[1:][moves]
+    n_moves = np.bincount(move_path, minlength=n)
+    row_start = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(n_moves, out=row_start[1:])
+
+    lengths = seg[moves]
+    exact = np.cumsum(lengths * (bead_area(np.array(widths), np.array(heights)) / filament_area)[move_path])
+    exact -= np.concatenate([[0.0], exact])[row_start[:-1]][move_path]
+    rounded = np.round(exact, 5)
+    e = np.diff(rounded, prepend=0.0)
+    printed = n_moves > 0
+    e[row_start[:-1][printed]] = rounded[row_start[:-1][printed]]
+    ends = pts[moves + 1]
+    text, offsets = format_moves(ends[:, 0], ends[:, 1], e)
+
+    start = pts[first[:-1]]
+    last = np.maximum(row_start[1:] - 1, 0)
+    end = np.where(printed[:, None], ends[last] if len(ends) else start, start)
+    low, high = start.copy(), start.copy()
+    if len(ends):
+        cuts = row_start[:-1][printed]
+        low[printed] = np.minimum(start[printed], np.minimum.reduceat(ends, cuts, axis=0))
+        high[printed] = np.maximum(start[printed], np.maximum.reduceat(ends, cuts, axis=0))
+    return PathBodies(
+        text=text,
+        bounds=offsets[row_start],
+        start=start,
+        end=end,
+        low=low,
+        high=high,
+        e=np.bincount(move_path, weights=e, minlength=n),
+        length=np.bincount(move_path, weights=lengths, minlength=n),
+    )
+
+
+def prepare_bodies(plan: LayerPlan, settings: Settings) -> None:
+    """Format the moves of ``plan``'s paths now (in a per-layer worker) and attach them as
+    ``plan.prepared``, so that :meth:`GcodeWriter.write_layer` only joins texts."""
+    paths = plan.paths
+    if paths:
+        bodies = format_bodies(paths, np.pi * settings.filament_diameter**2 / 4.0)
+        plan.prepared = Prepared(dict(zip(paths, range(len(paths)))), bodies)
+
+
 def fill_placeholders(text: str, values: dict[str, str], what: str) -> str:
     """Replace ``{name}`` in ``text`` by ``values[name]``; unknown names are a SettingsError."""
 
@@ -247,7 +343,6 @@ class GcodeWriter:
         self._retracted = False
         self._extruded = False
         self._fan_on = False
-        self._e_total = 0.0
         self._e_written = 0.0
         self._stats_layers = 0
         self._travel_mm = 0.0
@@ -326,7 +421,7 @@ class GcodeWriter:
                 pending, reset = "", False
         if paths:
             trailing = [pending] if pending else []
-            parts.extend(self._write_paths(paths, before, resets, colors, plan.index, trailing))
+            parts.extend(self._write_paths(paths, before, resets, colors, plan.index, trailing, plan.prepared))
             pending = "".join(trailing)
         if pending:
             parts.append(pending)
@@ -360,6 +455,30 @@ class GcodeWriter:
         s = self.settings
         return f"G1 E{fmt(sign * s.retract_length, 5)} F{fmt(s.retract_speed * 60, 1)}\n"
 
+    def _bodies(self, paths: list[Path], prepared: Prepared | None) -> tuple[PathBodies, np.ndarray, str]:
+        """The bodies of ``paths``: the prepared ones, the others formatted now; returns
+        the bodies, each path's row in them and the text the rows' bounds index."""
+        rows = np.full(len(paths), -1, dtype=np.int64)
+        if prepared is not None:
+            get = prepared.rows.get
+            rows[:] = [get(p, -1) for p in paths]
+        missing = np.flatnonzero(rows < 0)
+        if not len(missing):
+            return prepared.data, rows, prepared.data.text
+        fresh = format_bodies([paths[i] for i in missing.tolist()], self.filament_area)
+        if len(missing) == len(paths):
+            return fresh, np.arange(len(paths)), fresh.text
+        old: PathBodies = prepared.data
+        n_old = len(old.e)
+        rows[missing] = n_old + np.arange(len(missing))
+        joined = PathBodies(
+            text="",
+            bounds=np.concatenate([old.bounds, fresh.bounds[1:] + len(old.text)]),
+            **{name: np.concatenate([getattr(old, name), getattr(fresh, name)])
+               for name in ("start", "end", "low", "high", "e", "length")},
+        )
+        return joined, rows, old.text + fresh.text
+
     def _write_paths(
         self,
         paths: list[Path],
@@ -368,57 +487,34 @@ class GcodeWriter:
         colors: list[int],
         layer_index: int,
         trailing: list[str],
+        prepared: Prepared | None = None,
     ) -> list[str]:
-        """The text of a layer's paths: E math, travels, annotations and moves, in bulk.
+        """The text of a layer's paths: their bodies (:meth:`_bodies`), travels,
+        annotations, in bulk.
 
         ``before[i]`` is the state-change text due before path ``i``; ``resets[i]`` tells
         that it moved the head. Text due before paths that print nothing moves to the
         next printed path (or to ``trailing``).
         """
         s = self.settings
-        arrays, closed, widths_all, heights, roles_all = zip(
-            *map(attrgetter("points", "closed", "width", "height", "role"), paths)
-        )
-        sizes = np.fromiter(map(len, arrays), dtype=np.int64, count=len(paths))
-        closed = np.array(closed, dtype=bool)
-        counts = sizes + closed  # a closed path's vertices end at its first point again
-        first = np.zeros(len(paths) + 1, dtype=np.int64)
-        np.cumsum(counts, out=first[1:])
-        source = np.repeat(np.cumsum(sizes) - sizes - first[:-1], counts) + np.arange(first[-1])
-        source[first[1:][closed] - 1] = source[first[:-1][closed]]
-        pts = np.round(np.concatenate(arrays)[source], 3) + 0.0
-        seg = np.hypot(*np.diff(pts, axis=0).T)
-        inside = np.ones(len(seg), dtype=bool)
-        inside[first[1:-1] - 1] = False
-        moves = np.flatnonzero(inside & (seg > 0))
-        path_of_seg = np.repeat(np.arange(len(paths)), counts)[1:]
-        move_path = path_of_seg[moves]
-        n_moves = np.bincount(move_path, minlength=len(paths))
-        printed = np.flatnonzero(n_moves > 0)
+        bodies, rows, text = self._bodies(paths, prepared)
+        is_printed = bodies.length[rows] > 0
+        printed = np.flatnonzero(is_printed)
         if len(printed) < len(paths):
             self._skipped_paths += len(paths) - len(printed)
-            before, resets = self._carry_over(before, resets, n_moves > 0, trailing)
+            before, resets = self._carry_over(before, resets, is_printed, trailing)
         if not len(printed):
             return []
-
-        areas = bead_area(np.array(widths_all), np.array(heights))
-        lengths = seg[moves]
-        exact = np.cumsum(lengths * areas[move_path] / self.filament_area) + self._e_total
-        rounded = np.round(exact, 5)
-        e = np.diff(rounded, prepend=self._e_written)
-        self._e_total, self._e_written = float(exact[-1]), float(rounded[-1])
-        ends = pts[moves + 1]
-        text, offsets = format_moves(ends[:, 0], ends[:, 1], e)
-        row_start = np.zeros(len(paths) + 1, dtype=np.int64)
-        np.cumsum(n_moves, out=row_start[1:])
-        chunks = _split(text, offsets, np.append(row_start[printed], row_start[-1]))
+        rows = rows[printed]
+        cuts = zip(bodies.bounds[rows].tolist(), bodies.bounds[rows + 1].tolist())
+        chunks = [text[a:b] for a, b in cuts]
+        roles_all = [paths[i].role for i in printed.tolist()]
+        widths = np.array([paths[i].width for i in printed.tolist()])
+        starts, last = bodies.start[rows], bodies.end[rows]
 
         n = len(printed)
-        codes = np.fromiter(map(ROLE_CODE.__getitem__, roles_all), dtype=np.int64, count=len(paths))[printed]
-        widths = np.array(widths_all)[printed]
+        codes = np.fromiter(map(ROLE_CODE.__getitem__, roles_all), dtype=np.int64, count=n)
         feeds = self._feeds(codes, layer_index)
-        starts = pts[first[printed]]
-        last = ends[row_start[printed + 1] - 1]
         prev = np.vstack([[np.nan, np.nan] if self._pos is None else [self._pos], last[:-1]])
         unknown = np.array(resets, dtype=bool)[printed] | np.isnan(prev[:, 0])
         travel = unknown | (starts != prev).any(axis=1)
@@ -453,15 +549,16 @@ class GcodeWriter:
         self._retractions += n_retract
         self._time_s += (n_retract + int(retracted.sum())) * s.retract_length / s.retract_speed
         self._time_s += n_hop * 2 * s.z_hop / s.z_speed
-        self._time_s += float(dist.sum()) / s.travel_speed + float(np.sum(lengths / feeds[np.searchsorted(printed, move_path)]))
+        self._time_s += float(dist.sum()) / s.travel_speed + float(np.sum(bodies.length[rows] / feeds))
         self._travel_mm += float(dist.sum())
-        volume = np.bincount(move_path, weights=e, minlength=len(paths))[printed] * self.filament_area
+        filament = bodies.e[rows]
+        self._e_written += float(filament.sum())
+        volume = filament * self.filament_area
         for color, v in zip(np.array(colors)[printed].tolist(), volume.tolist()):
             self._volume_by_color[color] = self._volume_by_color.get(color, 0.0) + v
         self._purge_mm3 += float(volume[codes == ROLE_CODE[Role.WIPE_TOWER]].sum())
-        shown = np.concatenate([starts, ends])
-        self._bbox_min = np.minimum(self._bbox_min, [*shown.min(axis=0), self._z])
-        self._bbox_max = np.maximum(self._bbox_max, [*shown.max(axis=0), self._z])
+        self._bbox_min = np.minimum(self._bbox_min, [*bodies.low[rows].min(axis=0), self._z])
+        self._bbox_max = np.maximum(self._bbox_max, [*bodies.high[rows].max(axis=0), self._z])
         self._pos = (float(last[-1, 0]), float(last[-1, 1]))
         self._role, self._width, self._feed = ROLES[codes[-1]], float(widths[-1]), float(feeds[-1])
         self._retracted = False

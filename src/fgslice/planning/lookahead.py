@@ -175,7 +175,7 @@ class _PendingLayer:
                 steps.append(piece)
         steps.extend(change for _, change in changes[j:])
         plan = self.plan
-        return LayerPlan(index=plan.index, z=plan.z, height=plan.height, steps=steps)
+        return LayerPlan(index=plan.index, z=plan.z, height=plan.height, steps=steps, prepared=plan.prepared)
 
 
 def _shift_changes(plans: Iterable[LayerPlan], lead: float, rate_of: Callable[[Path], float]) -> Iterator[LayerPlan]:

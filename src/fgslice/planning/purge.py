@@ -287,7 +287,7 @@ def insert_purges(
         stats.changes += len(purges)
         stats.tower_base_mm3 += float(volumes[len(purges) : len(purges) + len(base)].sum())
         stats.extruded_mm3 += float(volumes.sum())
-        yield LayerPlan(index=plan.index, z=plan.z, height=plan.height, steps=steps)
+        yield LayerPlan(index=plan.index, z=plan.z, height=plan.height, steps=steps, prepared=plan.prepared)
 
 
 def _count_changes(colors: list[int], state: int | None) -> int:
