@@ -44,6 +44,9 @@ and the margin from cell boundaries beyond which a piece keeps one color."""
 MIN_MARGIN = 1e-9
 """Smallest margin from a cell boundary (fraction units), for linear fields."""
 
+VERTEX_TOLERANCE = 1e-9
+"""Arc distance (mm) under which a path vertex counts as lying on a piece's end."""
+
 WARN_QUANTILE = 0.1
 """Share of the cut-bounded pieces allowed below ``min_segment_mm`` in the palette advice."""
 
@@ -91,42 +94,75 @@ class Cut:
     bounded_lengths: np.ndarray
 
 
+def _complex(xy: np.ndarray) -> np.ndarray:
+    """``(N, 2)`` float points as ``(N,)`` complex numbers ``x + iy`` (a view when possible)."""
+    return np.ascontiguousarray(xy, dtype=np.float64).view(np.complex128)[:, 0]
+
+
+def _xy(points: np.ndarray) -> np.ndarray:
+    """``(N,)`` complex points as an ``(N, 2)`` float view (x, y)."""
+    return np.ascontiguousarray(points).view(np.float64).reshape(-1, 2)
+
+
+@dataclass(frozen=True)
+class _Lines:
+    """The vertices of a list of paths, flat (closed paths repeat their first vertex).
+
+    Points are complex ``x + iy`` (mm): indexing a 1-D complex array is much cheaper
+    than gathering rows of an ``(N, 2)`` array.
+    """
+
+    vertex: np.ndarray
+    pid: np.ndarray
+    arc: np.ndarray
+    first: np.ndarray
+    total: np.ndarray
+    closed: np.ndarray
+
+    @classmethod
+    def of(cls, paths: list[Path]) -> "_Lines":
+        verts = [p.vertices for p in paths]
+        counts = np.array([len(v) for v in verts])
+        vertex = _complex(np.concatenate(verts))
+        pid = np.repeat(np.arange(len(paths)), counts)
+        step = np.r_[0.0, np.abs(np.diff(vertex))]
+        first = np.r_[0, np.cumsum(counts)[:-1]]
+        step[first] = 0.0
+        cum = np.cumsum(step)
+        arc = cum - np.repeat(cum[first], counts)
+        total = arc[first + counts - 1]
+        return cls(vertex, pid, arc, first, total, np.array([p.closed for p in paths]))
+
+
 @dataclass(frozen=True)
 class _Dense:
     """Sub-segments of a set of paths (flat arrays, one row per sub-segment, in path order).
 
     ``uniform`` marks sub-segments proven to hold one color and no zipper band (see
-    :func:`_sample`); the others are at most ``w / 2`` long.
+    :func:`_sample`); the others are at most ``w / 2`` long. Sub-segment ``i`` is the
+    ``index[i]``-th step ``step[piece[i]]`` (complex, mm) from ``origin[piece[i]]``.
     """
 
     pid: np.ndarray
     segment: np.ndarray
-    p0: np.ndarray
-    p1: np.ndarray
     length: np.ndarray
     arc_mid: np.ndarray
-    mid: np.ndarray
     uniform: np.ndarray
+    piece: np.ndarray
+    index: np.ndarray
+    origin: np.ndarray
+    step: np.ndarray
+
+    def start(self, i: np.ndarray) -> np.ndarray:
+        """Complex start points of sub-segments ``i``."""
+        piece = self.piece[i]
+        return self.origin[piece] + self.step[piece] * self.index[i]
 
 
-def _split(pid, segment, a, b, arc0, count) -> _Dense:
-    """Split segments ``a -> b`` (starting at arc position ``arc0`` on path ``pid``) into
-    ``count`` equal sub-segments each."""
-    src = np.repeat(np.arange(len(a)), count)
-    j = np.arange(len(src)) - (np.cumsum(count) - count)[src]
-    step = ((b - a) / count[:, None])[src]
-    sub = (np.hypot(*(b - a).T) / count)[src]
-    p0 = a[src] + step * j[:, None]
-    return _Dense(
-        pid=pid[src],
-        segment=segment[src],
-        p0=p0,
-        p1=p0 + step,
-        length=sub,
-        arc_mid=arc0[src] + sub * (j + 0.5),
-        mid=p0 + step / 2,
-        uniform=np.zeros(len(src), dtype=bool),
-    )
+def _repeat_index(count: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For items repeated ``count`` times each: the item of every copy and its rank."""
+    item = np.repeat(np.arange(len(count)), count)
+    return item, np.arange(len(item)) - np.repeat(np.cumsum(count) - count, count)
 
 
 def _pieces_of(length: np.ndarray, step: float) -> np.ndarray:
@@ -134,7 +170,7 @@ def _pieces_of(length: np.ndarray, step: float) -> np.ndarray:
     return np.maximum(np.ceil(length / step), 1).astype(np.int64)
 
 
-def _sample(verts, pid, arc, field, palette, z: float, w: float, beta: float):
+def _sample(lines: _Lines, field, palette, z: float, w: float, beta: float):
     """Sub-segments of the paths with the field's color (and zipper neighbor) on each.
 
     Two levels, so that the field is evaluated densely only where colors may change:
@@ -152,14 +188,21 @@ def _sample(verts, pid, arc, field, palette, z: float, w: float, beta: float):
 
     Returns ``(dense, color, neighbor)``; ``neighbor`` is -1 outside zipper bands.
     """
+    pid, vertex = lines.pid, lines.vertex
     seg = np.flatnonzero(pid[1:] == pid[:-1])
-    first_vertex = np.searchsorted(pid, pid[seg])
-    a, b = verts[seg], verts[seg + 1]
-    count = _pieces_of(np.hypot(*(b - a).T), COARSE_STEP_WIDTHS * w)
-    coarse = _split(pid[seg], seg - first_vertex, a, b, arc[seg], count)
-    n = len(coarse.pid)
-    last = np.flatnonzero(np.r_[coarse.pid[1:] != coarse.pid[:-1], True])
-    f = field.fractions(np.vstack([coarse.p0, coarse.mid, coarse.p1[last]]), z)
+    a = vertex[seg]
+    d = vertex[seg + 1] - a
+    length = np.abs(d)
+    count = _pieces_of(length, COARSE_STEP_WIDTHS * w)
+    src, j = _repeat_index(count)
+    step = (d / count)[src]
+    sub = (length / count)[src]
+    p0 = a[src] + step * j
+    arc0 = lines.arc[seg][src] + sub * j
+    cpid = pid[seg][src]
+    n = len(src)
+    last = np.flatnonzero(np.r_[cpid[1:] != cpid[:-1], True])
+    f = field.fractions(_xy(np.concatenate([p0, p0 + step / 2, p0[last] + step[last]])), z)
     f0, fm = f[:n], f[n : 2 * n]
     f1 = np.empty_like(f0)
     f1[:-1] = f0[1:]
@@ -172,43 +215,59 @@ def _sample(verts, pid, arc, field, palette, z: float, w: float, beta: float):
     c1[:-1], near1[:-1] = c0[1:], near[1:n]
     c1[last], near1[last] = c[2 * n :], near[2 * n :]
     uniform = (c0 == c1) & (c0 == cm) & ~(near[:n] | near[n : 2 * n] | near1)
-    fine_count = np.where(uniform, 1, _pieces_of(coarse.length, w / 2))
-    dense = _split(coarse.pid, coarse.segment, coarse.p0, coarse.p1, coarse.arc_mid - coarse.length / 2, fine_count)
-    dense.uniform[:] = np.repeat(uniform, fine_count)
-    sampled = ~dense.uniform
-    fine_f = field.fractions(dense.mid[sampled], z)
-    color = np.repeat(c0, fine_count)
-    color[sampled] = palette.color_of(fine_f)
+    fine_count = np.where(uniform, 1, _pieces_of(sub, w / 2))
+    piece, index = _repeat_index(fine_count)
+    fine_length = sub / fine_count
+    length_of = fine_length[piece]
+    dense = _Dense(
+        pid=cpid[piece],
+        segment=(seg - lines.first[pid[seg]])[src][piece],
+        length=length_of,
+        arc_mid=arc0[piece] + length_of * (index + 0.5),
+        uniform=uniform[piece],
+        piece=piece,
+        index=index,
+        origin=p0,
+        step=step / fine_count,
+    )
+    sampled = np.flatnonzero(~dense.uniform)
+    color = c0[piece]
     neighbor = np.full(len(color), -1, dtype=np.int64)
-    if beta > 0:
-        neighbor[sampled] = palette.zipper_neighbor(fine_f, beta)
+    if len(sampled):
+        fine_f = field.fractions(_xy(dense.start(sampled) + dense.step[piece[sampled]] / 2), z)
+        color[sampled] = palette.color_of(fine_f)
+        if beta > 0:
+            neighbor[sampled] = palette.zipper_neighbor(fine_f, beta)
     return dense, color, neighbor
 
 
-def _refine(dense, k, nxt, predicate) -> np.ndarray:
-    """Distance past the midpoint of ``k`` where ``predicate(points)`` turns False.
+def _refine(dense: _Dense, k: np.ndarray, nxt: np.ndarray, same_side) -> np.ndarray:
+    """Distance past the midpoint of ``k`` where ``same_side(points)`` turns False.
 
     The search runs between the two midpoints, or from the shared end when a side is
     uniform (its color is known all along it), so it spans at most ``w / 2``. Each of
     :data:`SEARCH_ROUNDS` rounds evaluates :data:`SEARCH_SPLITS` - 1 inner points of
-    every interval at once and keeps the part where the predicate turns False. The
-    path between the midpoints runs from the midpoint of ``k`` to its end, then from
-    the start of ``nxt`` to its midpoint.
+    every interval at once (``same_side`` gets them as ``(len(k) * (SEARCH_SPLITS - 1), 2)``
+    rows, interval by interval) and keeps the part where the predicate turns False.
+    The path between the midpoints runs from the midpoint of ``k`` to its end, then
+    from the start of ``nxt`` to its midpoint.
     """
     half_k, half_n = dense.length[k] / 2, dense.length[nxt] / 2
-    mid_k, end_k, start_n = dense.mid[k][:, None], dense.p1[k][:, None], dense.p0[nxt][:, None]
-    along_k, along_n = end_k - mid_k, dense.mid[nxt][:, None] - start_n
+    step_k, step_n = dense.step[dense.piece[k]], dense.step[dense.piece[nxt]]
+    dir_k = np.divide(step_k, 2 * half_k, out=np.zeros_like(step_k), where=half_k > 0)[:, None]
+    dir_n = np.divide(step_n, 2 * half_n, out=np.zeros_like(step_n), where=half_n > 0)[:, None]
+    mid_k = (dense.start(k) + step_k / 2)[:, None]
+    start_n = dense.start(nxt)[:, None]
     lo = np.where(dense.uniform[k], half_k, 0.0)
     hi = half_k + np.where(dense.uniform[nxt], 0.0, half_n)
     j = np.arange(1, SEARCH_SPLITS)
     for _ in range(SEARCH_ROUNDS):
         step = (hi - lo) / SEARCH_SPLITS
         u = lo[:, None] + step[:, None] * j
-        first = u <= half_k[:, None]
-        on_k = mid_k + along_k * np.where(first, u / half_k[:, None], 1.0)[..., None]
-        on_n = start_n + along_n * np.where(first, 0.0, (u - half_k[:, None]) / half_n[:, None])[..., None]
-        same = predicate(np.where(first[..., None], on_k, on_n).reshape(-1, 2), len(j))
-        passed = np.cumprod(same.reshape(-1, len(j)), axis=1).sum(axis=1)
+        past = u - half_k[:, None]
+        points = np.where(past <= 0, mid_k + dir_k * u, start_n + dir_n * past)
+        same = same_side(_xy(points.ravel())).reshape(-1, len(j))
+        passed = np.cumprod(same, axis=1).sum(axis=1)
         lo, hi = lo + step * passed, lo + step * (passed + 1)
     return (lo + hi) / 2
 
@@ -218,23 +277,14 @@ def cut_by_color(paths: list[Path], field, palette, z: float, layer_index: int, 
     the order of ``paths`` and along each path."""
     if not paths:
         return Cut([], np.empty(0))
+    if palette.size == 1:
+        return Cut([p.with_color(0) for p in paths], np.empty(0))
     w = settings.bead_width
     beta = settings.zipper
-    verts_list = [p.vertices for p in paths]
-    counts = np.array([len(v) for v in verts_list])
-    verts = np.vstack(verts_list)
-    pid = np.repeat(np.arange(len(paths)), counts)
-    closed = np.array([p.closed for p in paths])
-    step = np.r_[0.0, np.hypot(*np.diff(verts, axis=0).T)]
-    step[np.r_[False, pid[1:] != pid[:-1]]] = 0.0
-    cum = np.cumsum(step)
-    first_vertex = np.r_[0, np.cumsum(counts)[:-1]]
-    arc = cum - cum[first_vertex][pid]
-    total = arc[np.cumsum(counts) - 1]
-
-    dense, color, neighbor = _sample(verts, pid, arc, field, palette, z, w, beta)
+    lines = _Lines.of(paths)
+    dense, color, neighbor = _sample(lines, field, palette, z, w, beta)
     label = zipper_labels(
-        color, neighbor, dense.pid, dense.segment, dense.arc_mid, dense.length, closed, layer_index,
+        color, neighbor, dense.pid, dense.segment, dense.arc_mid, dense.length, lines.closed, layer_index,
         tooth_length(w, settings.min_segment_mm),
     )
 
@@ -242,111 +292,128 @@ def cut_by_color(paths: list[Path], field, palette, z: float, layer_index: int, 
     first_sub = np.searchsorted(dense.pid, np.arange(len(paths)))
     last_sub = np.r_[first_sub[1:], len(dense.pid)] - 1
     inner = np.flatnonzero((dense.pid[1:] == dense.pid[:-1]) & (label[1:] != label[:-1]))
-    wrap = np.flatnonzero(closed & (label[last_sub] != label[first_sub]))
+    wrap = np.flatnonzero(lines.closed & (label[last_sub] != label[first_sub]))
     k = np.r_[inner, last_sub[wrap]]
     nxt = np.r_[inner + 1, first_sub[wrap]]
     u = dense.length[k] / 2
     band_k, band_n = neighbor[k] >= 0, neighbor[nxt] >= 0
-    field_cut = ~band_k & ~band_n
-    band_cut = band_k != band_n
-    if field_cut.any():
-        ks, ns = k[field_cut], nxt[field_cut]
-        want = color[ks]
-        u[field_cut] = _refine(dense, ks, ns, lambda xy, r: palette.color_of(field.fractions(xy, z)) == np.repeat(want, r))
-    if band_cut.any():
-        ks, ns = k[band_cut], nxt[band_cut]
-        want = band_k[band_cut]
-        u[band_cut] = _refine(
-            dense, ks, ns, lambda xy, r: (palette.zipper_neighbor(field.fractions(xy, z), beta) >= 0) == np.repeat(want, r)
-        )
+    # cuts searched on the color (neither side in a band), then on the band edge
+    by_color, by_band = np.flatnonzero(~band_k & ~band_n), np.flatnonzero(band_k != band_n)
+    searched = np.r_[by_color, by_band]
+    if len(searched):
+        split = len(by_color) * (SEARCH_SPLITS - 1)
+        want_color = np.repeat(color[k[by_color]], SEARCH_SPLITS - 1)
+        want_band = np.repeat(band_k[by_band], SEARCH_SPLITS - 1)
+
+        def same_side(xy: np.ndarray) -> np.ndarray:
+            f = field.fractions(xy, z)
+            same = np.empty(len(xy), dtype=bool)
+            if split:
+                same[:split] = palette.color_of(f[:split]) == want_color
+            if split < len(xy):
+                same[split:] = (palette.zipper_neighbor(f[split:], beta) >= 0) == want_band
+            return same
+
+        u[searched] = _refine(dense, k[searched], nxt[searched], same_side)
     cpid = dense.pid[k]
-    carc = np.mod(dense.arc_mid[k] + u, total[cpid])
-    order = np.lexsort((carc, cpid))
-    cpid, carc, clab = cpid[order], carc[order], label[nxt][order]
-    bounds = np.searchsorted(cpid, np.arange(len(paths) + 1))
-
-    whole: list[Path] = []
-    whole_src: list[int] = []
-    rows: list[tuple[int, float, float, int]] = []
-    for i, path in enumerate(paths):
-        a, b = bounds[i], bounds[i + 1]
-        first_label = int(label[first_sub[i]])
-        if a == b:
-            whole.append(path.with_color(first_label))
-            whole_src.append(i)
-            continue
-        cuts, labs = carc[a:b], clab[a:b].tolist()
-        length = float(total[i])
-        if path.closed:
-            starts, ends = cuts.tolist(), np.r_[cuts[1:], cuts[0] + length].tolist()
-        else:
-            starts, ends, labs = [0.0] + cuts.tolist(), cuts.tolist() + [length], [first_label] + labs
-        starts, ends, labs = _merge_short(starts, ends, labs, w, path.closed, length)
-        if len(labs) == 1 and path.closed:
-            whole.append(path.with_color(labs[0]))
-            whole_src.append(i)
-            continue
-        rows += [(i, s0, s1, lab) for s0, s1, lab in zip(starts, ends, labs)]
-    # pieces in the order of their source paths (and along each path)
-    unordered = whole + _pieces(paths, verts, pid, arc, total, rows)
-    order = np.argsort(np.r_[whole_src, [r[0] for r in rows]].astype(np.int64), kind="stable")
-    pieces = [unordered[j] for j in order.tolist()]
-    runs = _color_runs(color, dense.pid, dense.length, closed)
-    return Cut(pieces, runs)
+    carc = np.mod(dense.arc_mid[k] + u, lines.total[cpid])
+    first_label = label[first_sub]
+    pieces = _pieces(paths, lines, cpid, carc, label[nxt], first_label, w)
+    return Cut(pieces, _color_runs(color, dense.pid, dense.length, lines.closed))
 
 
-def _pieces(paths, verts, pid, arc, total, rows) -> list[Path]:
-    """Build the pieces ``rows = [(path, start arc, end arc, color)]`` in bulk.
+def _pieces(paths, lines: _Lines, cpid, carc, clab, first_label, min_length: float) -> list[Path]:
+    """The colored pieces of ``paths`` from their cuts (path, arc position, color after
+    the cut), in the order of ``paths`` and along each path.
 
-    A piece whose end passes its (closed) path's length wraps over the path's start.
+    An open path starts in ``first_label``; a closed path's last piece runs over its
+    start. Pieces shorter than ``min_length`` are merged (:func:`_merge_short`, run
+    only on the paths that have some). A path left in one piece keeps its points.
     """
-    if not rows:
-        return []
-    rpid = np.array([r[0] for r in rows])
-    s0 = np.array([r[1] for r in rows])
-    s1 = np.array([r[2] for r in rows])
-    wraps = s1 > total[rpid]
-    # wrapped pieces become two parts: [s0, total] and [0, s1 - total]
-    part_pid = np.r_[rpid, rpid[wraps]]
-    part_s0 = np.r_[s0, np.zeros(wraps.sum())]
-    part_s1 = np.r_[np.minimum(s1, total[rpid]), s1[wraps] - total[rpid[wraps]]]
-    gap = np.r_[0.0, np.cumsum(total + 1.0)[:-1]]
-    g_arc = arc + gap[pid]
-    g0, g1 = part_s0 + gap[part_pid], part_s1 + gap[part_pid]
-    first = np.searchsorted(pid, part_pid)
-    last = np.searchsorted(pid, part_pid, side="right") - 1
-    head, tail = _points_at(verts, g_arc, g0, first, last), _points_at(verts, g_arc, g1, first, last)
-    i0 = np.searchsorted(g_arc, g0, side="right")
-    i1 = np.maximum(np.searchsorted(g_arc, g1, side="left"), i0)
-    inner = i1 - i0
-    size = inner + 2
-    offsets = np.r_[0, np.cumsum(size)]
-    out = np.empty((offsets[-1], 2))
-    out[offsets[:-1]] = head
-    out[offsets[1:] - 1] = tail
-    slot = np.ones(offsets[-1], dtype=bool)
-    slot[offsets[:-1]] = slot[offsets[1:] - 1] = False
-    src = np.arange(inner.sum()) - np.repeat(np.cumsum(inner) - inner, inner) + np.repeat(i0, inner)
-    out[slot] = verts[src]
-    n_rows = len(rows)
-    extra = dict(zip(np.flatnonzero(wraps).tolist(), range(n_rows, n_rows + int(wraps.sum()))))
-    pieces = []
-    for r, (i, _, _, lab) in enumerate(rows):
-        pts = out[offsets[r] : offsets[r + 1]]
-        if r in extra:
-            e = extra[r]
-            pts = np.vstack([pts, out[offsets[e] + 1 : offsets[e + 1]]])
+    n_paths = len(paths)
+    total, closed = lines.total, lines.closed
+    has_cuts = np.bincount(cpid, minlength=n_paths) > 0
+    # an open path's first piece starts at arc 0, in the path's first color
+    opening = np.flatnonzero(has_cuts & ~closed)
+    rpid = np.r_[opening, cpid]
+    order = np.lexsort((np.r_[np.zeros(len(opening)), carc], rpid))
+    rpid, start, lab = rpid[order], np.r_[np.zeros(len(opening)), carc][order], np.r_[first_label[opening], clab][order]
+    bounds = np.searchsorted(rpid, np.arange(n_paths + 1))
+    end = np.empty_like(start)
+    end[:-1] = start[1:]
+    last = bounds[1:][has_cuts] - 1
+    cut_paths = np.flatnonzero(has_cuts)
+    end[last] = np.where(closed[cut_paths], start[bounds[:-1][has_cuts]] + total[cut_paths], total[cut_paths])
+
+    short = np.bincount(rpid[end - start < min_length], minlength=n_paths) > 0
+    keep = ~short[rpid]
+    rows = [(rpid[keep], start[keep], end[keep], lab[keep])]
+    for i in np.flatnonzero(short).tolist():
+        a, b = bounds[i], bounds[i + 1]
+        merged = _merge_short(start[a:b].tolist(), end[a:b].tolist(), lab[a:b].tolist(), min_length, bool(closed[i]), float(total[i]))
+        rows.append((np.full(len(merged[2]), i), *(np.array(c) for c in merged)))
+    rpid, start, end, lab = (np.concatenate(c) for c in zip(*rows))
+    # a path left in one piece (no cuts, or all merged into one) keeps its points
+    count = np.bincount(rpid, minlength=n_paths)
+    whole_label = first_label.copy()
+    one = count[rpid] == 1
+    whole_label[rpid[one]] = lab[one]
+    rpid, start, end, lab = rpid[~one], start[~one], end[~one], lab[~one]
+    whole = np.flatnonzero(count <= 1)
+    xy, offsets = _piece_points(lines, rpid, start, end)
+    item_pid = np.r_[whole, rpid]
+    order = np.argsort(item_pid, kind="stable")
+    item_piece = np.r_[np.full(len(whole), -1), np.arange(len(rpid))][order]
+    bounds, labels, whole_labels = offsets.tolist(), lab.tolist(), whole_label.tolist()
+    out = []
+    for i, r in zip(item_pid[order].tolist(), item_piece.tolist()):
         p = paths[i]
-        pieces.append(Path(pts, p.role, lab, p.width, p.height, False, p.group))
-    return pieces
+        if r < 0:
+            out.append(Path(p.points, p.role, whole_labels[i], p.width, p.height, p.closed, p.group))
+        else:
+            out.append(Path(xy[bounds[r] : bounds[r + 1]], p.role, labels[r], p.width, p.height, False, p.group))
+    return out
 
 
-def _points_at(verts, g_arc, g, first, last) -> np.ndarray:
-    """Points at global arc positions ``g`` on paths spanning vertices ``first..last``."""
-    idx = np.clip(np.searchsorted(g_arc, g, side="right") - 1, first, last - 1)
+def _piece_points(lines: _Lines, rpid, s0, s1) -> tuple[np.ndarray, np.ndarray]:
+    """Points of the pieces ``[s0, s1]`` (arc positions, mm) of paths ``rpid``: all of
+    them as one ``(M, 2)`` array and each piece's row offsets into it.
+
+    A piece ending past its closed path's length runs over the path's start: closed
+    paths are walked twice (vertices repeated with arc positions shifted by the length).
+    Vertices within :data:`VERTEX_TOLERANCE` of a piece's ends are left out (a cut on a
+    vertex, e.g. at a zipper tooth boundary, gives no repeated point).
+    """
+    counts = np.diff(np.r_[lines.first, len(lines.vertex)])
+    ext = counts + np.where(lines.closed, counts - 1, 0)
+    owner, rank = _repeat_index(ext)
+    again = rank >= counts[owner]
+    src = lines.first[owner] + np.where(again, rank - counts[owner] + 1, rank)
+    vertex = lines.vertex[src]
+    gap = np.r_[0.0, np.cumsum(2 * lines.total + 1.0)[:-1]]
+    g_arc = lines.arc[src] + np.where(again, lines.total[owner], 0.0) + gap[owner]
+    ext_first = np.r_[0, np.cumsum(ext)[:-1]]
+    g0, g1 = s0 + gap[rpid], s1 + gap[rpid]
+    first, last = ext_first[rpid], ext_first[rpid] + ext[rpid] - 1
+    i0 = np.searchsorted(g_arc, g0 + VERTEX_TOLERANCE, side="right")
+    i1 = np.maximum(np.searchsorted(g_arc, g1 - VERTEX_TOLERANCE, side="left"), i0)
+    inner = i1 - i0
+    offsets = np.r_[0, np.cumsum(inner + 2)]
+    out = np.empty(offsets[-1], dtype=np.complex128)
+    out[offsets[:-1]] = _points_at(vertex, g_arc, g0, np.searchsorted(g_arc, g0, side="right"), first, last)
+    out[offsets[1:] - 1] = _points_at(vertex, g_arc, g1, np.searchsorted(g_arc, g1, side="right"), first, last)
+    piece, j = _repeat_index(inner)
+    out[offsets[:-1][piece] + 1 + j] = vertex[i0[piece] + j]
+    return _xy(out), offsets
+
+
+def _points_at(vertex, g_arc, g, after, first, last) -> np.ndarray:
+    """Complex points at global arc positions ``g`` on paths spanning vertices
+    ``first..last``; ``after`` is the index of the first vertex past each position."""
+    idx = np.clip(after - 1, first, last - 1)
     span = g_arc[idx + 1] - g_arc[idx]
     t = np.clip(np.divide(g - g_arc[idx], span, out=np.zeros_like(g), where=span > 0), 0.0, 1.0)
-    return verts[idx] + (verts[idx + 1] - verts[idx]) * t[:, None]
+    return vertex[idx] + (vertex[idx + 1] - vertex[idx]) * t
 
 
 def _color_runs(color, pid, length, closed) -> np.ndarray:
