@@ -21,11 +21,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 from fgslice.toolpaths.paths import Path, Role
-from fgslice.toolpaths.walls import bead_spacing, offset, opening, ring_groups, split_rings
+from fgslice.toolpaths.simplify import simplify_polygons
+from fgslice.toolpaths.walls import OUTLINE_TOLERANCE, bead_spacing, offset, opening, ring_groups, split_rings
 
 MAX_LINK_SPACINGS = 3.0
 """Longest link between two neighbouring lines, in line spacings."""
@@ -138,10 +137,23 @@ def _links(containers, owner, line, x0, x1, y, spacing: float, angle_deg: float)
 
 def _serpentines(line, x0, x1, y, owner, a, b) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Order linked segments into chains: ``(points (2n, 2), chain id per point, owner
-    per chain)``."""
+    per chain)``.
+
+    Each segment has at most one link to the next line and one from the previous, so
+    chains are simple paths; each segment finds its chain's first segment (the lowest
+    index: segments are sorted by line) by pointer jumping, and chains are numbered in
+    the order of their first segments.
+    """
     n = len(line)
-    graph = coo_matrix((np.ones(len(a)), (a, b)), shape=(n, n))
-    n_chains, chain = connected_components(graph, directed=False)
+    head = np.arange(n)
+    head[b] = a
+    while True:
+        jumped = head[head]
+        if np.array_equal(jumped, head):
+            break
+        head = jumped
+    roots, chain = np.unique(head, return_inverse=True)
+    n_chains = len(roots)
     order = np.lexsort((line, chain))
     forward = line[order] % 2 == 0
     start = np.where(forward, x0[order], x1[order])
@@ -438,8 +450,11 @@ def uncovered_area(regions, width: float, eroded=None) -> float:
 
     That is each region minus its opening by ``w / 2`` (erode by half a bead, dilate
     back): what no bead of width ``w`` fits in. ``eroded``, when given, is ``regions``
-    already eroded by ``w / 2``.
+    already eroded by ``w / 2``; otherwise ``regions`` are first simplified to
+    :data:`~fgslice.toolpaths.walls.OUTLINE_TOLERANCE`, as walls are.
     """
     regions = np.atleast_1d(np.asarray(regions, dtype=object))
+    if eroded is None:
+        regions = simplify_polygons(regions, OUTLINE_TOLERANCE)
     opened = opening(regions, width / 2) if eroded is None else offset(eroded, width / 2)
     return float(np.sum(shapely.area(regions)) - np.sum(shapely.area(opened)))
