@@ -29,6 +29,7 @@ change get a new :class:`Path`. Coordinates are bed-frame mm.
 
 from __future__ import annotations
 
+from bisect import bisect_left
 from collections.abc import Sequence
 from operator import attrgetter
 
@@ -97,12 +98,13 @@ def order_layer(
     colors = np.fromiter(map(attrgetter("color"), items), dtype=np.int64, count=n)
     role_ids = map(id, map(attrgetter("role"), items))
     walls = np.fromiter(map(_WALL_ROLE_IDS.__contains__, role_ids), dtype=bool, count=n)
-    stray = np.setdiff1d(colors, np.append(sequence, SKIRT_COLOR))
-    if stray.size:
-        raise ValueError(f"layer {paths.index}: path colors {stray.tolist()} are not in the color sequence")
-
     rank = np.full(max(int(colors.max()), int(sequence.max(initial=0))) + 2, -1, dtype=np.int64)
     rank[sequence[::-1]] = np.arange(sequence.size)[::-1]  # first occurrence wins
+    stray = (colors != SKIRT_COLOR) & ((colors < 0) | (rank[np.maximum(colors, 0)] < 0))
+    if stray.any():
+        bad = np.unique(colors[stray]).tolist()
+        raise ValueError(f"layer {paths.index}: path colors {bad} are not in the color sequence")
+
     feature_late = ~walls if feature_order == "walls_first" else walls
     group_key = np.where(colors == SKIRT_COLOR, -1, rank[colors] * 2 + feature_late)
     unit = np.fromiter(map(attrgetter("group"), items), dtype=np.int64, count=n)
@@ -113,23 +115,29 @@ def order_layer(
     # order) and then its loose paths.
     order = np.lexsort((unit_rank, loose, group_key))
     keys, loose, unit_rank = group_key[order], loose[order], unit_rank[order]
-    group_start = np.flatnonzero(np.r_[True, keys[1:] != keys[:-1]])
+    new_group = np.ones(n, dtype=bool)
+    np.not_equal(keys[1:], keys[:-1], out=new_group[1:])
+    group_start = np.flatnonzero(new_group)
     unit_paths = np.add.reduceat(~loose, group_start)
-    new_unit = np.r_[True, (keys[1:] != keys[:-1]) | (unit_rank[1:] != unit_rank[:-1])]
+    new_unit = new_group.copy()
+    new_unit[1:] |= unit_rank[1:] != unit_rank[:-1]
     layer = _Layer([items[i] for i in order.tolist()], loose)
+    chains = _Chains(layer, new_unit) if not loose.all() else None
+    all_unit_starts = np.flatnonzero(new_unit & ~loose).tolist()
 
     x, y = (float(v) for v in np.asarray(start_xy, dtype=np.float64).reshape(2))
     steps: list[Step] = []
     current = None
     group_colors = colors[order[group_start]].tolist()
-    bounds = zip(group_start.tolist(), np.r_[group_start[1:], n].tolist(), unit_paths.tolist())
+    group_stop = group_start.tolist()[1:] + [n]
+    bounds = zip(group_start.tolist(), group_stop, unit_paths.tolist())
     for color, (a, c, units) in zip(group_colors, bounds):
         if color != SKIRT_COLOR and color != current:
             steps.append(SetState(color))
             current = color
         if units:
-            unit_starts = np.flatnonzero(new_unit[a : a + units]) + a
-            x, y = _walk_units(layer, unit_starts.tolist(), a + units, x, y, steps)
+            unit_starts = all_unit_starts[bisect_left(all_unit_starts, a) : bisect_left(all_unit_starts, a + units)]
+            x, y = _walk_units(layer, chains, unit_starts, a + units, x, y, steps)
         if a + units < c:
             x, y = _tour(layer, a + units, c, x, y, steps)
     plan.steps = steps
@@ -143,8 +151,9 @@ class _Layer:
         paths: the paths.
         xy: every path's points, concatenated, as complex ``x + iy`` (mm).
         offsets: ``(n + 1,)`` path ``i`` owns ``xy[offsets[i]:offsets[i + 1]]`` (Python list).
-        closed: each path's ``closed`` (Python list).
-        start, end: first and last point of each path (Python lists of complex, mm).
+        closed, closed_mask: each path's ``closed`` (Python list, numpy array).
+        start, end: first and last point of each path (Python lists of complex, mm);
+            ``start_xy``, ``end_xy`` the same as numpy arrays.
         entry_xy: entries of the loose paths (complex, mm), path by path, in point order.
         entry_path: path index of each entry.
         entry_reverses: True for the last point of an open path (entering there reverses it).
@@ -163,9 +172,11 @@ class _Layer:
         first, last = offsets[:-1], offsets[1:] - 1
         self.xy = xy
         self.offsets = offsets.tolist()
+        self.closed_mask = closed
         self.closed = closed.tolist()
-        self.start = xy[first].tolist()
-        self.end = xy[last].tolist()
+        self.start_xy, self.end_xy = xy[first], xy[last]
+        self.start = self.start_xy.tolist()
+        self.end = self.end_xy.tolist()
 
         keep = np.zeros(xy.size, dtype=bool)
         open_loose = loose & ~closed
@@ -183,7 +194,8 @@ class _Layer:
             arc = np.cumsum(steps)
             arc -= np.repeat(arc[ring_first], ring_sizes)
             bucket = np.floor(arc / CLOSED_ENTRY_SPACING_MM)
-            new_bucket = np.r_[True, bucket[1:] != bucket[:-1]]
+            new_bucket = np.ones(bucket.size, dtype=bool)
+            np.not_equal(bucket[1:], bucket[:-1], out=new_bucket[1:])
             new_bucket[ring_first] = True
             keep[vertex[new_bucket]] = True
         entry_vertex = np.flatnonzero(keep)
@@ -221,7 +233,9 @@ class _Layer:
         return dist
 
 
-def _walk_units(layer: _Layer, unit_starts: list[int], stop: int, x: float, y: float, out: list[Step]) -> tuple[float, float]:
+def _walk_units(
+    layer: _Layer, chains: _Chains, unit_starts: list[int], stop: int, x: float, y: float, out: list[Step]
+) -> tuple[float, float]:
     """Print the units starting at ``unit_starts`` (the last ends at ``stop``), nearest
     first unit first, each in its list order, every path rotated (closed) or reversed
     (open) to start nearest the nozzle. Appends to ``out``; returns the final XY (mm)."""
@@ -233,23 +247,61 @@ def _walk_units(layer: _Layer, unit_starts: list[int], stop: int, x: float, y: f
             firsts = np.array([u[0] for u in pending])
             pick = int(layer.entry_distances(firsts, at).argmin())
         a, b = pending.pop(pick)
-        at = _walk(layer, a, b, at, out)
+        at = chains.walk(a, b, at, out)
     return at.real, at.imag
 
 
-def _walk(layer: _Layer, a: int, b: int, at: complex, out: list[Step]) -> complex:
-    """Append paths ``a..b-1`` in order, each oriented to start nearest the nozzle; returns
-    the final nozzle position."""
-    paths, closed, start, end = layer.paths, layer.closed, layer.start, layer.end
-    for i in range(a, b):
-        if closed[i]:
-            path, at = layer.enter_closed(i, at)
-        elif abs(end[i] - at) < abs(start[i] - at):
-            path, at = _moved(paths[i], paths[i].points[::-1]), start[i]
-        else:
-            path, at = paths[i], end[i]
-        out.append(path)
-    return at
+class _Chains:
+    """Orientation of a unit's paths, decided ahead for runs of open paths.
+
+    Walking a unit, an open path is reversed when its last point is nearer the nozzle
+    than its first, and the nozzle then stands at the end it finished. Inside a *chain*
+    (a run of open paths of one unit) that decision depends only on whether the previous
+    path was reversed, so it is computed for the whole layer at once: ``flips[0][i]`` /
+    ``flips[1][i]`` say whether path ``i`` is reversed when its chain's first path is
+    not / is. Only a chain's first path (after a unit start or a closed path) is decided
+    against the actual nozzle position; closed paths are rotated one by one.
+    """
+
+    def __init__(self, layer: _Layer, new_unit: np.ndarray) -> None:
+        self.layer = layer
+        closed, start, end = layer.closed_mask, layer.start_xy, layer.end_xy
+        head = new_unit | closed
+        head[1:] |= closed[:-1]
+        # Reverse path i when the previous one finished at its end (a) / at its start (b);
+        # the first path is a chain head, decided at run time.
+        rev_a = np.zeros(head.size, dtype=bool)
+        rev_b = np.zeros(head.size, dtype=bool)
+        np.less(np.abs(end[1:] - end[:-1]), np.abs(start[1:] - end[:-1]), out=rev_a[1:])
+        np.less(np.abs(end[1:] - start[:-1]), np.abs(start[1:] - start[:-1]), out=rev_b[1:])
+        index = np.arange(head.size)
+        fixed_at = np.maximum.accumulate(np.where((rev_a == rev_b) & ~head, index, -1))
+        negations = np.cumsum(rev_a & ~rev_b & ~head)
+        chain_head = np.maximum.accumulate(np.where(head, index, 0))
+        fixed = fixed_at >= chain_head
+        anchor = np.where(fixed, fixed_at, chain_head)
+        flip = (negations - negations[anchor]) % 2 == 1
+        flip ^= np.where(fixed, rev_a[anchor], False)
+        self.flips = (flip.tolist(), (flip ^ ~fixed).tolist())
+        self.heads = np.flatnonzero(head).tolist()
+
+    def walk(self, a: int, b: int, at: complex, out: list[Step]) -> complex:
+        """Append paths ``a..b-1`` (one unit) in order, oriented from the nozzle position
+        ``at``; returns the final nozzle position."""
+        layer = self.layer
+        paths, closed, start, end = layer.paths, layer.closed, layer.start, layer.end
+        heads = self.heads[bisect_left(self.heads, a) : bisect_left(self.heads, b)]
+        for c0, c1 in zip(heads, heads[1:] + [b]):
+            if closed[c0]:
+                path, at = layer.enter_closed(c0, at)
+                out.append(path)
+                continue
+            flips = self.flips[abs(end[c0] - at) < abs(start[c0] - at)][c0:c1]
+            out.extend(
+                [_moved(paths[i], paths[i].points[::-1]) if f else paths[i] for i, f in zip(range(c0, c1), flips)]
+            )
+            at = start[c1 - 1] if flips[-1] else end[c1 - 1]
+        return at
 
 
 def _tour(layer: _Layer, a: int, b: int, x: float, y: float, out: list[Step]) -> tuple[float, float]:
