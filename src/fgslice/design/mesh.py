@@ -149,11 +149,11 @@ class MeshGeometry:
         self.path = Path(path) if path is not None else None
         self.gap_tolerance = float(gap_tolerance)
         self._mesh = mesh
-        self._vertices = np.asarray(mesh.vertices, dtype=float)
-        self._faces = np.asarray(mesh.faces, dtype=np.int64)
+        self._vertices, self._faces = _sorted_by_height(np.asarray(mesh.vertices, dtype=float), np.asarray(mesh.faces, dtype=np.int64))
         self._edges, self._face_edges = _unique_edges(self._faces, len(self._vertices))
-        face_z = self._vertices[self._faces, 2]
-        self._slabs = _SlabIndex(face_z.min(axis=1), face_z.max(axis=1))
+        self._face_z = self._vertices[self._faces, 2]
+        self._edge_ends = self._vertices[self._edges]
+        self._slabs = _SlabIndex(self._face_z.min(axis=1), self._face_z.max(axis=1))
 
     @property
     def triangle_count(self) -> int:
@@ -196,7 +196,7 @@ class MeshGeometry:
         plane, face = self._slabs.crossings(zs)
         if len(face) == 0:
             return np.array([shapely.MultiPolygon() for _ in zs], dtype=object)
-        node_ids, points = _plane_segments(self._vertices, self._faces, self._edges, self._face_edges, face, zs[plane])
+        node_ids, points = _plane_segments(self._face_z, self._edge_ends, self._face_edges, face, zs[plane])
         node_ids = node_ids + plane[:, None] * len(self._edges)
         rings, ring_plane, ring_direction = _stitch(node_ids, points, plane, self.gap_tolerance)
         return _assemble(rings, ring_plane, ring_direction, len(zs))
@@ -221,6 +221,16 @@ class MeshGeometry:
     def _ray_counters(self) -> tuple[_RayCrossings, ...]:
         triangles = self._vertices[self._faces]
         return tuple(_RayCrossings(triangles, axis) for axis in range(3))
+
+
+def _sorted_by_height(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices renumbered by height and faces by lowest vertex (both stable), so that the
+    triangles and edges a plane crosses lie close together in memory."""
+    order = np.argsort(vertices[:, 2], kind="stable")
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    faces = rank[faces]
+    return vertices[order], faces[np.argsort(faces.min(axis=1), kind="stable")]
 
 
 def _unique_edges(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
@@ -295,8 +305,24 @@ def _ranks_within_runs(counts: np.ndarray) -> np.ndarray:
     return np.arange(total) - np.repeat(starts, counts)
 
 
-def _plane_segments(vertices, faces, edges, face_edges, face, z):
+def _crossed_edges() -> np.ndarray:
+    """(8, 2): for each pattern ``sum(above_j << j)`` of a triangle's vertices above the
+    plane, the slot (0..2, edge j joins v_j and v_j+1) of the edge where its segment
+    starts (v_j above, v_j+1 below) and of the one where it ends (the opposite)."""
+    above = (np.arange(8)[:, None] >> np.arange(3)) & 1 == 1
+    above_next = np.roll(above, -1, axis=1)
+    return np.column_stack([np.argmax(above & ~above_next, axis=1), np.argmax(above_next & ~above, axis=1)])
+
+
+_CROSSED_EDGES = _crossed_edges()
+_VERTEX_BITS = np.array([1, 2, 4])
+
+
+def _plane_segments(face_z, edge_ends, face_edges, face, z):
     """Segments cut by planes at heights ``z`` from triangles ``face`` (one plane each).
+
+    ``face_z`` (F, 3) are the triangles' vertex heights, ``edge_ends`` (E, 2, 3) the
+    end points of each unique edge, ``face_edges`` (F, 3) each triangle's edges.
 
     Returns ``(edge_ids, points)``: shapes (M, 2) and (M, 2, 2) — for both ends of each
     segment, the unique edge it lies on and its XY position. The position is computed
@@ -308,13 +334,10 @@ def _plane_segments(vertices, faces, edges, face_edges, face, z):
     shell gives counter-clockwise loops (seen from +z) around solid and clockwise ones
     around holes.
     """
-    above = vertices[faces[face], 2] >= z[:, None]
-    above_next = np.roll(above, -1, axis=1)
-    which = np.column_stack([np.argmax(above & ~above_next, axis=1), np.argmax(above_next & ~above, axis=1)])
-    edge_ids = face_edges[face[:, None], which]
-    ends = edges[edge_ids]
-    a = vertices[ends[..., 0]]
-    b = vertices[ends[..., 1]]
+    pattern = (face_z[face] >= z[:, None]) @ _VERTEX_BITS
+    edge_ids = face_edges[face[:, None], _CROSSED_EDGES[pattern]]
+    ends = edge_ends[edge_ids]
+    a, b = ends[:, :, 0], ends[:, :, 1]
     t = (z[:, None] - a[..., 2]) / (b[..., 2] - a[..., 2])
     points = a[..., :2] + t[..., None] * (b[..., :2] - a[..., :2])
     return edge_ids, points
