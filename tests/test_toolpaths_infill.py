@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import shapely
 
-from fgslice.toolpaths.infill import concentric, rectilinear, solid_fill
+from fgslice.toolpaths.infill import concentric, line_fill, rectilinear, solid_fill
 from fgslice.toolpaths.paths import Role, bead_area
 
 W, H = 0.4, 0.2
@@ -89,3 +89,19 @@ def test_solid_fill_of_many_regions_keeps_each_region_and_its_volume():
         mine = [p for p in paths if p.color == color]
         assert all(area.buffer(1e-3).covers(shapely.LineString(p.points)) for p in mine)
         assert volume(mine) / (area.area * H) == pytest.approx(1.0, abs=0.03)
+
+
+def test_line_fill_with_one_spacing_per_region_fills_each_on_its_own():
+    # overlapping copies of one region at several spacings, in one pass, give each
+    # spacing's own lines; every line lies inside the region
+    area = region()
+    spacings = np.array([0.9, 1.3, 2.0])
+    pts, chain, owner = line_fill(np.full(3, area, dtype=object), spacings, 30.0, W)
+    assert set(owner.tolist()) == {0, 1, 2}
+    for k, spacing in enumerate(spacings):
+        alone, alone_chain, _ = line_fill(area, spacing, 30.0, W)
+        mine = owner[chain] == k
+        assert np.array_equal(pts[mine], alone)
+        assert len(np.unique(alone_chain)) == len(np.unique(chain[mine]))
+    lines = shapely.linestrings(pts.reshape(-1, 2, 2))  # vertices 2j, 2j + 1: line j
+    assert shapely.covers(area.buffer(1e-6), lines).all()

@@ -59,48 +59,52 @@ def _rotate(xy: np.ndarray, angle_deg: float) -> np.ndarray:
     return xy @ np.array([[c, s], [-s, c]])
 
 
-def _scan_segments(coords: np.ndarray, ring: np.ndarray, spacing: float, min_length: float):
+def _scan_segments(coords: np.ndarray, ring: np.ndarray, spacing, min_length: float, group=None):
     """Scanline clip of the global grid of horizontal lines against polygon rings.
 
     ``coords``/``ring`` are the ring vertices of one region or of many disjoint ones
     (already rotated, no repeated closing vertex). Each edge crossing line
     ``y_i = (i + 1/2) spacing`` (half-open in y, so a vertex on a line counts once) gives
     an x; sorted per line, crossings pair up into inside intervals by the even-odd rule
-    (which holds for the union of disjoint regions too).
+    (which holds for the union of disjoint regions too). ``spacing`` is one value or one
+    per ring; ``group``, when given (one value per ring), clips each group of rings on
+    its own (groups may overlap, e.g. one region at several spacings).
 
-    Returns ``(line, x0, x1, y, src)`` arrays sorted by line then x, one row per segment
-    at least ``min_length`` long; ``src`` is the ring whose edge the segment starts on
-    (a segment lies in the region that ring bounds).
+    Returns ``(line, x0, x1, y, src)`` arrays sorted by group, line then x, one row per
+    segment at least ``min_length`` long; ``src`` is the ring whose edge the segment
+    starts on (a segment lies in the region that ring bounds).
     """
     nxt = np.arange(1, len(coords) + 1)
     last = np.r_[ring[1:] != ring[:-1], True]
     first = np.flatnonzero(np.r_[True, ring[1:] != ring[:-1]])
     nxt[last] = first
     p, q = coords, coords[nxt]
+    per_ring = np.ndim(spacing) > 0
+    step = np.asarray(spacing)[ring] if per_ring else spacing
     lo_y, hi_y = np.minimum(p[:, 1], q[:, 1]), np.maximum(p[:, 1], q[:, 1])
-    i0 = np.ceil(lo_y / spacing - 0.5).astype(np.int64)
-    i1 = np.ceil(hi_y / spacing - 0.5).astype(np.int64)
+    i0 = np.ceil(lo_y / step - 0.5).astype(np.int64)
+    i1 = np.ceil(hi_y / step - 0.5).astype(np.int64)
     counts = np.maximum(i1 - i0, 0)
     edge = np.repeat(np.arange(len(p)), counts)
     line = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts) + i0[edge]
-    y = (line + 0.5) * spacing
+    y = (line + 0.5) * (step[edge] if per_ring else step)
     t = (y - p[edge, 1]) / (q[edge, 1] - p[edge, 1])
     x = p[edge, 0] + t * (q[edge, 0] - p[edge, 0])
-    order = np.lexsort((x, line))
-    line, x, edge = line[order], x[order], edge[order]
-    line, x0, x1, src = line[0::2], x[0::2], x[1::2], ring[edge[0::2]]
+    order = np.lexsort((x, line) if group is None else (x, line, np.asarray(group)[ring[edge]]))
+    line, x, y, edge = line[order], x[order], y[order], edge[order]
+    line, x0, x1, y, src = line[0::2], x[0::2], x[1::2], y[0::2], ring[edge[0::2]]
     keep = x1 - x0 >= min_length
-    line, x0, x1, src = line[keep], x0[keep], x1[keep], src[keep]
-    return line, x0, x1, (line + 0.5) * spacing, src
+    return line[keep], x0[keep], x1[keep], y[keep], src[keep]
 
 
-def _links(containers, owner, line, x0, x1, y, spacing: float, angle_deg: float) -> tuple[np.ndarray, np.ndarray]:
+def _links(containers, owner, line, x0, x1, y, spacing, angle_deg: float) -> tuple[np.ndarray, np.ndarray]:
     """Accepted links ``(a, b)``: segment ``a`` on line ``i`` to segment ``b`` on ``i + 1``.
 
     The link joins the right ends when ``i`` is even, the left ends when odd; both
-    segments must belong to the same region (``owner``) and the link must lie in that
-    region's entry of ``containers`` (prepared, bed frame). Each end is used once
-    (shortest candidate wins).
+    segments must belong to the same region (``owner``), the link must be at most
+    :data:`MAX_LINK_SPACINGS` times the region's ``spacing`` (one value, or one per
+    region) long and lie in the region's entry of ``containers`` (prepared, bed frame).
+    Each end is used once (shortest candidate wins).
     """
     n = len(line)
     if n < 2:
@@ -120,7 +124,7 @@ def _links(containers, owner, line, x0, x1, y, spacing: float, angle_deg: float)
     xa = np.where(right, x1[a], x0[a])
     xb = np.where(right, x1[b], x0[b])
     length = np.hypot(xb - xa, y[b] - y[a])
-    ok = length <= MAX_LINK_SPACINGS * spacing
+    ok = length <= MAX_LINK_SPACINGS * (np.asarray(spacing)[owner[a]] if np.ndim(spacing) else spacing)
     a, b, xa, xb, length, right = a[ok], b[ok], xa[ok], xb[ok], length[ok], right[ok]
     inward = np.where(right, -INSIDE_TOLERANCE, INSIDE_TOLERANCE)
     ends = _rotate(np.column_stack([xa + inward, y[a], xb + inward, y[b]]).reshape(-1, 2), angle_deg)
@@ -166,9 +170,12 @@ def _serpentines(line, x0, x1, y, owner, a, b) -> tuple[np.ndarray, np.ndarray, 
     return pts, np.repeat(chain[order], 2), chain_owner
 
 
-def line_fill(regions, spacing: float, angle_deg: float, width: float, *, link: bool = True):
+def line_fill(regions, spacing, angle_deg: float, width: float, *, link: bool = True):
     """Parallel lines across one region or many disjoint ones at ``spacing`` and
     ``angle_deg``, as polylines (one scanline pass for all regions).
+
+    ``spacing`` is one value, or one per region: each region is then clipped on its
+    own, so the regions may overlap (e.g. one region at several candidate spacings).
 
     Returns:
         ``(points, chain, owner)``: the ``(M, 2)`` vertices of every polyline in the bed
@@ -178,12 +185,16 @@ def line_fill(regions, spacing: float, angle_deg: float, width: float, *, link: 
     """
     regions = np.atleast_1d(np.asarray(regions, dtype=object))
     empty = (np.empty((0, 2)), np.empty(0, int), np.empty(0, int))
-    if spacing <= 0:
+    if np.any(np.asarray(spacing) <= 0):
         return empty
     coords, ring, ring_owner = ring_groups(regions)
     if len(coords) == 0:
         return empty
-    line, x0, x1, y, src = _scan_segments(_rotate(coords, -angle_deg), ring, spacing, width)
+    if np.ndim(spacing):
+        step, group = np.asarray(spacing, dtype=float)[ring_owner], ring_owner
+    else:
+        step, group = spacing, None
+    line, x0, x1, y, src = _scan_segments(_rotate(coords, -angle_deg), ring, step, width, group)
     if len(line) == 0:
         return empty
     owner = ring_owner[src]
@@ -225,8 +236,9 @@ def rectilinear(
     ``area * h * density / 100`` of volume by more than :data:`VOLUME_TOLERANCE`, the
     spacing is corrected for the measured link length (links are dropped if they would
     take more than half of the length) and the candidate spacings around it
-    (:data:`SPACING_CANDIDATES`) are tried, keeping the one closest in volume: with few
-    lines, whole lines appear or vanish as the grid shifts.
+    (:data:`SPACING_CANDIDATES`, all in one :func:`line_fill` pass) are tried, keeping
+    the one closest in volume: with few lines, whole lines appear or vanish as the grid
+    shifts.
     """
     if density <= 0 or region.is_empty:
         return []
@@ -237,13 +249,15 @@ def rectilinear(
     if lines > 0 and abs(lines + links - target) > VOLUME_TOLERANCE * target:
         link = link and target - links > 0.5 * target
         corrected = lines * spacing / (target - links if link else target)
-        best = (abs(lines + links - target), points, chain)
-        for factor in SPACING_CANDIDATES:
-            pts, ch, _ = line_fill(region, corrected * factor, angle_deg, width, link=link)
-            error = abs(sum(_lengths(pts, ch)) - target)
-            if error < best[0]:
-                best = (error, pts, ch)
-        points, chain = best[1], best[2]
+        factors = np.asarray(SPACING_CANDIDATES)
+        pts, ch, owner = line_fill(np.full(len(factors), region, dtype=object), corrected * factors, angle_deg, width, link=link)
+        same = ch[1:] == ch[:-1]
+        total = np.bincount(owner[ch[:-1][same]], np.hypot(*np.diff(pts, axis=0).T)[same], minlength=len(factors))
+        error = np.abs(total - target)
+        best = int(np.argmin(error))
+        if error[best] < abs(lines + links - target):
+            keep = owner[ch] == best
+            points, chain = pts[keep], ch[keep]
     return open_paths(points, chain, role, color, width, height)
 
 
