@@ -135,28 +135,65 @@ class _Lines:
 
 
 @dataclass(frozen=True)
-class _Dense:
-    """Sub-segments of a set of paths (flat arrays, one row per sub-segment, in path order).
-
-    ``uniform`` marks sub-segments proven to hold one color and no zipper band (see
-    :func:`_sample`); the others are at most ``w / 2`` long. Sub-segment ``i`` is the
-    ``index[i]``-th step ``step[piece[i]]`` (complex, mm) from ``origin[piece[i]]``.
-    """
+class _Sub:
+    """Attributes of a set of sub-segments (see :meth:`_Dense.locate`); lengths and arc
+    positions in mm, points complex."""
 
     pid: np.ndarray
     segment: np.ndarray
     length: np.ndarray
-    arc_mid: np.ndarray
+    arc_start: np.ndarray
+    start: np.ndarray
+    step: np.ndarray
     uniform: np.ndarray
-    piece: np.ndarray
-    index: np.ndarray
+
+
+@dataclass(frozen=True)
+class _Dense:
+    """Sub-segments of a set of paths, in path order, stored per sampling piece.
+
+    Piece ``p`` (of path ``pid[p]``, on its segment ``segment[p]``) is split into
+    ``count[p]`` equal sub-segments, numbered from ``offset[p]``: each ``length[p]``
+    long (mm), the ``j``-th one running from ``origin[p] + j * step[p]`` (complex) at arc
+    position ``arc0[p] + j * length[p]``. ``uniform`` pieces are proven to hold one
+    color and no zipper band (see :func:`_sample`); the other sub-segments are at most
+    ``w / 2`` long. Only the few sub-segments that matter (cuts, bands) are ever
+    looked at one by one (:meth:`locate`).
+    """
+
+    offset: np.ndarray
+    count: np.ndarray
+    pid: np.ndarray
+    segment: np.ndarray
     origin: np.ndarray
     step: np.ndarray
+    length: np.ndarray
+    arc0: np.ndarray
+    uniform: np.ndarray
 
-    def start(self, i: np.ndarray) -> np.ndarray:
-        """Complex start points of sub-segments ``i``."""
-        piece = self.piece[i]
-        return self.origin[piece] + self.step[piece] * self.index[i]
+    @property
+    def size(self) -> int:
+        """Number of sub-segments."""
+        return int(self.offset[-1] + self.count[-1])
+
+    def piece_of(self) -> np.ndarray:
+        """The piece of every sub-segment (for looking up many of them)."""
+        return np.repeat(np.arange(len(self.count)), self.count)
+
+    def locate(self, i: np.ndarray) -> _Sub:
+        """Attributes of sub-segments ``i``."""
+        p = np.searchsorted(self.offset, i, side="right") - 1
+        j = i - self.offset[p]
+        length = self.length[p]
+        return _Sub(
+            pid=self.pid[p],
+            segment=self.segment[p],
+            length=length,
+            arc_start=self.arc0[p] + length * j,
+            start=self.origin[p] + self.step[p] * j,
+            step=self.step[p],
+            uniform=self.uniform[p],
+        )
 
 
 def _repeat_index(count: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -186,7 +223,8 @@ def _sample(lines: _Lines, field, palette, z: float, w: float, beta: float):
     2. the other pieces are split into sub-segments of at most ``w / 2`` and the
        field is evaluated at their midpoints.
 
-    Returns ``(dense, color, neighbor)``; ``neighbor`` is -1 outside zipper bands.
+    Returns ``(dense, color, neighbor)``: per sub-segment, the color and the zipper
+    neighbor (-1 outside bands; None without zipper).
     """
     pid, vertex = lines.pid, lines.vertex
     seg = np.flatnonzero(pid[1:] == pid[:-1])
@@ -198,7 +236,6 @@ def _sample(lines: _Lines, field, palette, z: float, w: float, beta: float):
     step = (d / count)[src]
     sub = (length / count)[src]
     p0 = a[src] + step * j
-    arc0 = lines.arc[seg][src] + sub * j
     cpid = pid[seg][src]
     n = len(src)
     last = np.flatnonzero(np.r_[cpid[1:] != cpid[:-1], True])
@@ -216,33 +253,34 @@ def _sample(lines: _Lines, field, palette, z: float, w: float, beta: float):
     c1[last], near1[last] = c[2 * n :], near[2 * n :]
     uniform = (c0 == c1) & (c0 == cm) & ~(near[:n] | near[n : 2 * n] | near1)
     fine_count = np.where(uniform, 1, _pieces_of(sub, w / 2))
-    piece, index = _repeat_index(fine_count)
-    fine_length = sub / fine_count
-    length_of = fine_length[piece]
     dense = _Dense(
-        pid=cpid[piece],
-        segment=(seg - lines.first[pid[seg]])[src][piece],
-        length=length_of,
-        arc_mid=arc0[piece] + length_of * (index + 0.5),
-        uniform=uniform[piece],
-        piece=piece,
-        index=index,
+        offset=np.cumsum(fine_count) - fine_count,
+        count=fine_count,
+        pid=cpid,
+        segment=(seg - lines.first[pid[seg]])[src],
         origin=p0,
         step=step / fine_count,
+        length=sub / fine_count,
+        arc0=lines.arc[seg][src] + sub * j,
+        uniform=uniform,
     )
-    sampled = np.flatnonzero(~dense.uniform)
-    color = c0[piece]
-    neighbor = np.full(len(color), -1, dtype=np.int64)
-    if len(sampled):
-        fine_f = field.fractions(_xy(dense.start(sampled) + dense.step[piece[sampled]] / 2), z)
+    color = np.repeat(c0, fine_count)
+    neighbor = np.full(len(color), -1, dtype=np.int64) if beta > 0 else None
+    split = np.flatnonzero(~uniform)
+    if len(split):
+        piece, rank = _repeat_index(fine_count[split])
+        piece = split[piece]
+        sampled = dense.offset[piece] + rank
+        fine_f = field.fractions(_xy(p0[piece] + dense.step[piece] * (rank + 0.5)), z)
         color[sampled] = palette.color_of(fine_f)
         if beta > 0:
             neighbor[sampled] = palette.zipper_neighbor(fine_f, beta)
     return dense, color, neighbor
 
 
-def _refine(dense: _Dense, k: np.ndarray, nxt: np.ndarray, same_side) -> np.ndarray:
-    """Distance past the midpoint of ``k`` where ``same_side(points)`` turns False.
+def _refine(k: _Sub, nxt: _Sub, same_side) -> np.ndarray:
+    """Distance past the midpoint of sub-segments ``k`` where ``same_side(points)``
+    turns False on the way to the midpoints of the following sub-segments ``nxt``.
 
     The search runs between the two midpoints, or from the shared end when a side is
     uniform (its color is known all along it), so it spans at most ``w / 2``. Each of
@@ -252,14 +290,13 @@ def _refine(dense: _Dense, k: np.ndarray, nxt: np.ndarray, same_side) -> np.ndar
     The path between the midpoints runs from the midpoint of ``k`` to its end, then
     from the start of ``nxt`` to its midpoint.
     """
-    half_k, half_n = dense.length[k] / 2, dense.length[nxt] / 2
-    step_k, step_n = dense.step[dense.piece[k]], dense.step[dense.piece[nxt]]
-    dir_k = np.divide(step_k, 2 * half_k, out=np.zeros_like(step_k), where=half_k > 0)[:, None]
-    dir_n = np.divide(step_n, 2 * half_n, out=np.zeros_like(step_n), where=half_n > 0)[:, None]
-    mid_k = (dense.start(k) + step_k / 2)[:, None]
-    start_n = dense.start(nxt)[:, None]
-    lo = np.where(dense.uniform[k], half_k, 0.0)
-    hi = half_k + np.where(dense.uniform[nxt], 0.0, half_n)
+    half_k, half_n = k.length / 2, nxt.length / 2
+    dir_k = np.divide(k.step, k.length, out=np.zeros_like(k.step), where=half_k > 0)[:, None]
+    dir_n = np.divide(nxt.step, nxt.length, out=np.zeros_like(nxt.step), where=half_n > 0)[:, None]
+    mid_k = (k.start + k.step / 2)[:, None]
+    start_n = nxt.start[:, None]
+    lo = np.where(k.uniform, half_k, 0.0)
+    hi = half_k + np.where(nxt.uniform, 0.0, half_n)
     j = np.arange(1, SEARCH_SPLITS)
     for _ in range(SEARCH_ROUNDS):
         step = (hi - lo) / SEARCH_SPLITS
@@ -270,6 +307,13 @@ def _refine(dense: _Dense, k: np.ndarray, nxt: np.ndarray, same_side) -> np.ndar
         passed = np.cumprod(same, axis=1).sum(axis=1)
         lo, hi = lo + step * passed, lo + step * (passed + 1)
     return (lo + hi) / 2
+
+
+def _changes(values: np.ndarray, path_start: np.ndarray) -> np.ndarray:
+    """Sub-segments (not starting a path) whose value differs from the previous one's."""
+    i = np.flatnonzero(values[1:] != values[:-1]) + 1
+    at = np.minimum(np.searchsorted(path_start, i), len(path_start) - 1)
+    return i[path_start[at] != i]
 
 
 def cut_by_color(paths: list[Path], field, palette, z: float, layer_index: int, settings: Settings) -> Cut:
@@ -283,20 +327,34 @@ def cut_by_color(paths: list[Path], field, palette, z: float, layer_index: int, 
     beta = settings.zipper
     lines = _Lines.of(paths)
     dense, color, neighbor = _sample(lines, field, palette, z, w, beta)
-    label = zipper_labels(
-        color, neighbor, dense.pid, dense.segment, dense.arc_mid, dense.length, lines.closed, layer_index,
-        tooth_length(w, settings.min_segment_mm),
-    )
+    first_sub = dense.offset[np.searchsorted(dense.pid, np.arange(len(paths)))]
+    last_sub = np.r_[first_sub[1:], dense.size] - 1
+    color_change = _changes(color, first_sub)
+    label, label_change = color, color_change
+    band = np.flatnonzero(neighbor >= 0) if beta > 0 else np.empty(0, dtype=np.int64)
+    if len(band):
+        piece = dense.piece_of()[band]
+        length = dense.length[piece]
+        arc_mid = dense.arc0[piece] + length * (band - dense.offset[piece] + 0.5)
+        at = np.minimum(np.searchsorted(first_sub, band), len(paths) - 1)
+        run_start = np.r_[True, np.diff(band) != 1] | (first_sub[at] == band)
+        label = color.copy()
+        label[band] = zipper_labels(
+            color[band], neighbor[band], run_start, dense.segment[piece], arc_mid, length,
+            lines.closed[dense.pid[piece]], layer_index, tooth_length(w, settings.min_segment_mm),
+        )
+        label_change = _changes(label, first_sub)
 
     # cuts between consecutive sub-segments (and across the start of closed paths)
-    first_sub = np.searchsorted(dense.pid, np.arange(len(paths)))
-    last_sub = np.r_[first_sub[1:], len(dense.pid)] - 1
-    inner = np.flatnonzero((dense.pid[1:] == dense.pid[:-1]) & (label[1:] != label[:-1]))
     wrap = np.flatnonzero(lines.closed & (label[last_sub] != label[first_sub]))
-    k = np.r_[inner, last_sub[wrap]]
-    nxt = np.r_[inner + 1, first_sub[wrap]]
-    u = dense.length[k] / 2
-    band_k, band_n = neighbor[k] >= 0, neighbor[nxt] >= 0
+    k = np.r_[label_change - 1, last_sub[wrap]]
+    nxt = np.r_[label_change, first_sub[wrap]]
+    sk = dense.locate(k)
+    u = sk.length / 2
+    if beta > 0:
+        band_k, band_n = neighbor[k] >= 0, neighbor[nxt] >= 0
+    else:
+        band_k = band_n = np.zeros(len(nxt), dtype=bool)
     # cuts searched on the color (neither side in a band), then on the band edge
     by_color, by_band = np.flatnonzero(~band_k & ~band_n), np.flatnonzero(band_k != band_n)
     searched = np.r_[by_color, by_band]
@@ -314,12 +372,13 @@ def cut_by_color(paths: list[Path], field, palette, z: float, layer_index: int, 
                 same[split:] = (palette.zipper_neighbor(f[split:], beta) >= 0) == want_band
             return same
 
-        u[searched] = _refine(dense, k[searched], nxt[searched], same_side)
-    cpid = dense.pid[k]
-    carc = np.mod(dense.arc_mid[k] + u, lines.total[cpid])
-    first_label = label[first_sub]
-    pieces = _pieces(paths, lines, cpid, carc, label[nxt], first_label, w)
-    return Cut(pieces, _color_runs(color, dense.pid, dense.length, lines.closed))
+        u[searched] = _refine(dense.locate(k[searched]), dense.locate(nxt[searched]), same_side)
+    cpid = sk.pid
+    carc = np.mod(sk.arc_start + sk.length / 2 + u, lines.total[cpid])
+    pieces = _pieces(paths, lines, cpid, carc, label[nxt], label[first_sub], w)
+    run_first = np.sort(np.r_[first_sub, color_change])
+    runs = dense.locate(run_first)
+    return Cut(pieces, _color_runs(runs.pid, color[run_first], runs.arc_start, lines.total, lines.closed))
 
 
 def _pieces(paths, lines: _Lines, cpid, carc, clab, first_label, min_length: float) -> list[Path]:
@@ -416,23 +475,23 @@ def _points_at(vertex, g_arc, g, after, first, last) -> np.ndarray:
     return vertex[idx] + (vertex[idx + 1] - vertex[idx]) * t
 
 
-def _color_runs(color, pid, length, closed) -> np.ndarray:
+def _color_runs(pid, color, arc, total, closed) -> np.ndarray:
     """Lengths of field-color runs bounded by color changes at both ends, mm.
 
-    Computed on the densified sub-segments (accurate to a sub-segment), with runs
-    of closed paths joined over the path start.
+    Runs are given by where they start (path ``pid``, ``color``, arc position ``arc``,
+    in path order); computed on the sub-segments (accurate to a sub-segment), with
+    runs of closed paths (lengths ``total``) joined over the path start.
     """
-    start = np.r_[True, (pid[1:] != pid[:-1]) | (color[1:] != color[:-1])]
-    run = np.cumsum(start) - 1
-    run_len = np.bincount(run, weights=length)
-    run_pid = pid[start]
-    run_color = color[start]
-    first_run = np.searchsorted(run_pid, run_pid, side="left")
-    last_run = np.searchsorted(run_pid, run_pid, side="right") - 1
+    same_path = pid[1:] == pid[:-1]
+    end = total[pid]
+    end[:-1] = np.where(same_path, arc[1:], end[:-1])
+    run_len = end - arc
+    first_run = np.searchsorted(pid, pid, side="left")
+    last_run = np.searchsorted(pid, pid, side="right") - 1
     idx = np.arange(len(run_len))
     single = first_run == last_run
-    c = closed[run_pid]
-    joined = c & ~single & (run_color[first_run] == run_color[last_run])
+    c = closed[pid]
+    joined = c & ~single & (color[first_run] == color[last_run])
     length_out = run_len.copy()
     at_first = joined & (idx == first_run)
     length_out[at_first] += run_len[last_run[at_first]]

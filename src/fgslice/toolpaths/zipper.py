@@ -28,7 +28,7 @@ def tooth_length(width: float, min_segment_mm: float) -> float:
 def zipper_labels(
     color: np.ndarray,
     neighbor: np.ndarray,
-    path_id: np.ndarray,
+    run_start: np.ndarray,
     segment: np.ndarray,
     arc_mid: np.ndarray,
     sub_length: np.ndarray,
@@ -36,30 +36,31 @@ def zipper_labels(
     layer_index: int,
     tooth: float,
 ) -> np.ndarray:
-    """Color of each densified sub-segment with zippers applied.
+    """Zipper colors of the densified sub-segments that lie in bands (in path order).
 
     Args:
-        color: field color at each sub-segment midpoint.
-        neighbor: ``palette.zipper_neighbor`` there (-1 outside every band).
-        path_id: index of the path each sub-segment belongs to (contiguous, in order).
+        color: field color at each in-band sub-segment's midpoint.
+        neighbor: ``palette.zipper_neighbor`` there (>= 0).
+        run_start: True where a stretch of consecutive in-band sub-segments of a path
+            begins (at the path's start or after a sub-segment outside every band).
         segment: index of the original path segment each sub-segment comes from.
         arc_mid: arc length of the sub-segment midpoint along its path, mm.
         sub_length: length of each sub-segment, mm.
-        closed: per path, whether it is closed.
+        closed: whether each sub-segment's path is closed.
         layer_index: the layer's index (parity shifts the alternation).
         tooth: tooth length along closed paths, mm.
     """
-    band = neighbor >= 0
-    if not band.any():
-        return color
-    lo, hi = np.minimum(color, neighbor), np.maximum(color, neighbor)
-    start = np.r_[True, (path_id[1:] != path_id[:-1]) | (band[1:] != band[:-1])]
-    run = np.cumsum(start) - 1
-    run_first = np.flatnonzero(start)
-    run_start_arc = arc_mid[run_first] - sub_length[run_first] / 2
-    run_length = np.bincount(run, weights=sub_length)
-    teeth = np.maximum(np.round(run_length / tooth), 1.0)
-    rel = arc_mid - run_start_arc[run]
-    along = np.floor(rel / (run_length[run] / teeth[run])).astype(np.int64)
-    index = np.where(closed[path_id], along, segment // 2)
-    return np.where(band, np.where((index + layer_index) % 2 == 0, lo, hi), color)
+    parity = (segment >> 1) + layer_index
+    loop = np.flatnonzero(closed)
+    if len(loop):
+        start = run_start[loop]
+        length = sub_length[loop]
+        run = np.cumsum(start) - 1
+        first = loop[start]
+        run_start_arc = arc_mid[first] - sub_length[first] / 2
+        run_length = np.bincount(run, weights=length)
+        teeth = np.maximum(np.round(run_length / tooth), 1.0)
+        along = np.floor((arc_mid[loop] - run_start_arc[run]) / (run_length / teeth)[run]).astype(np.int64)
+        parity[loop] = along + layer_index
+    lo = np.minimum(color, neighbor)
+    return np.where(parity & 1, color + neighbor - lo, lo)
