@@ -96,3 +96,30 @@ def test_verify_carries_temperatures_and_relative_mode_into_later_chunks():
     assert end == pytest.approx([10 + 0.5 * 299, 30, 0.2])
     faults = verify_gcode(text.replace("M109 S210", "M400"), SETTINGS, chunk_lines=10)
     assert [f.line for f in faults] == [26] and "(300 moves, to line 325)" in faults[0].message
+
+
+def test_verify_of_a_file_followed_while_it_is_written(tmp_path):
+    """Blocks split anywhere (mid-line, mid-number) and a file read as it grows give the
+    faults of the whole text."""
+    from fgslice.machine.verify import follow_file, verify_gcode_blocks
+
+    text = cold_program().encode()
+    whole = verify_gcode(text, SETTINGS)
+    rng = np.random.default_rng(5)
+    cuts = np.sort(rng.choice(np.arange(1, len(text)), 12, replace=False)).tolist()
+    blocks = [text[a:b] for a, b in zip([0, *cuts], [*cuts, len(text)])]
+    assert verify_gcode_blocks(blocks, SETTINGS, chunk_lines=4) == whole
+
+    path = tmp_path / "growing.gcode"
+    handle = open(path, "wb")
+
+    def writer():
+        with handle:
+            for block in blocks:
+                handle.write(block)
+                handle.flush()
+                yield handle.tell()
+
+    read = list(follow_file(path, writer(), min_block=16))
+    assert b"".join(read) == text and len(read) > 3
+    assert verify_gcode_blocks(read, SETTINGS) == whole

@@ -127,3 +127,20 @@ def test_temperature_dialect_sets_temperature_and_flow(tmp_path):
     flow = 100 * (8.35479e-6 * t**3 - 5.37075e-3 * t**2 + 1.13374 * t - 77.814)
     flows = [ev.values.get("S") for ev in program.flows]
     assert any(abs(f - flow) <= 0.5 for f in flows)
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_output_failing_verification_is_refused_and_not_written(tmp_path, jobs):
+    """The written file is verified (in a second process that follows it when there are
+    workers): a profile whose limits contradict its settings leaves no output."""
+    from fgslice.errors import SliceError
+
+    design = api.design(GRADIENT_X)
+    settings = load_settings(None, {"colors": "2", "max_bed_temperature": "40", "min_extrude_temperature": "250"})
+    out = tmp_path / "part.gcode"
+    with pytest.raises(SliceError, match="fails verification") as info:
+        slice_to_gcode(design, settings, out, jobs=jobs)
+    message = str(info.value)
+    assert "M140: bed temperature 60 C is outside 0..40 C" in message
+    assert "below min_extrude_temperature 250 C" in message
+    assert not out.exists() and not list(tmp_path.iterdir())

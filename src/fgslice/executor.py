@@ -46,6 +46,102 @@ def _die_with_parent(parent: int) -> None:
         os._exit(1)
 
 
+class Consumer:
+    """``fn(messages, *args)`` running in a forked process alongside this one.
+
+    ``messages`` is an iterator over what :meth:`send` is given, ending when
+    :meth:`result` is called; :meth:`result` returns what ``fn`` returned (or raises what
+    it raised). The process ignores Ctrl-C and dies with its parent, like the pool's
+    workers; :meth:`close` ends it early. Use as a context manager to always close it.
+    """
+
+    def __init__(self, fn: Callable[..., Any], *args: Any) -> None:
+        context = multiprocessing.get_context("fork")
+        self._conn, child = context.Pipe()
+        self._outcome: tuple[str, Any] | None = None
+        self._process = context.Process(target=_consume, args=(fn, child, os.getpid(), args), daemon=True)
+        with _sigint_held():
+            self._process.start()
+        child.close()
+
+    def send(self, message: Any) -> None:
+        """Hand ``message`` to the consumer's iterator.
+
+        Raises:
+            Exception: what the consumer raised, if it stopped on an error.
+            SliceError: the consumer's process died.
+        """
+        if self._outcome is not None:
+            return
+        try:
+            self._conn.send(message)
+        except OSError:  # the consumer stopped: its outcome is waiting, or it died
+            self._receive()
+
+    def result(self) -> Any:
+        """End the messages and return the consumer's result.
+
+        Raises:
+            Exception: what the consumer raised.
+            SliceError: the consumer's process died.
+        """
+        self.send(_END)
+        return self._receive()
+
+    def _receive(self) -> Any:
+        if self._outcome is None:
+            try:
+                self._outcome = self._conn.recv()
+            except (EOFError, OSError):
+                self._outcome = ("error", SliceError(
+                    "a worker process died while slicing (killed, or out of memory); no output was written",
+                    hint="retry with --jobs 1 to slice in one process"))
+            finally:
+                self.close()
+        kind, value = self._outcome
+        if kind == "error":
+            raise value
+        return value
+
+    def close(self) -> None:
+        """Stop the process if it still runs (idempotent)."""
+        if self._conn.closed:
+            return
+        if self._process.is_alive():
+            self._process.terminate()
+        self._process.join()
+        self._conn.close()
+
+    def __enter__(self) -> "Consumer":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+_END = "__end__"
+
+
+def _consume(fn: Callable[..., Any], conn: Any, parent: int, args: tuple) -> None:
+    """The consumer process: run ``fn`` over the messages, send back its outcome."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _die_with_parent(parent)
+
+    def messages() -> Iterator[Any]:
+        while (message := conn.recv()) != _END:
+            yield message
+
+    try:
+        outcome = ("ok", fn(messages(), *args))
+    except Exception as exc:  # handed to the parent, which raises it
+        outcome = ("error", exc)
+    try:
+        conn.send(outcome)
+    except Exception:  # an exception that does not pickle
+        conn.send(("error", SliceError(f"{type(outcome[1]).__name__}: {outcome[1]}")))
+    conn.close()
+
+
 def _call(fn: Callable[[Any, Any], Any], item: Any) -> Any:
     return fn(_STATE, item)
 

@@ -12,7 +12,8 @@ Stages (one module each; this file only wires them):
 3. serially, streaming: purge towers (``planning.purge``), look-ahead of state changes
    (``planning.lookahead``), the G-code writer (``machine.gcode``), which adds travels,
    retractions, annotations and state changes around the prepared moves;
-4. the written file is verified (``machine.verify``) before it replaces the output.
+4. the written file is verified (``machine.verify``) before it replaces the output; with
+   worker processes, by one more process that reads the file while it is written.
 
 Output is byte-identical whatever the number of workers: every per-layer result depends
 only on the design, the settings and the layer index.
@@ -20,10 +21,11 @@ only on the design, the settings and the layer index.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import time
 from datetime import datetime, timezone
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path as FilePath
 
@@ -32,11 +34,11 @@ import shapely
 
 from fgslice.design.base import Design
 from fgslice.errors import SliceError
-from fgslice.executor import default_jobs, map_ordered
+from fgslice.executor import Consumer, default_jobs, map_ordered
 from fgslice.guards import check_resources
 from fgslice.machine.dialects import make_dialect
 from fgslice.machine.gcode import GcodeWriter, prepare_bodies
-from fgslice.machine.verify import format_faults, verify_gcode
+from fgslice.machine.verify import follow_file, format_faults, verify_gcode, verify_gcode_blocks
 from fgslice.output import atomic_output
 from fgslice.planning.lookahead import apply_lookahead, apply_time_lead
 from fgslice.planning.order import order_layer
@@ -256,17 +258,29 @@ def slice_to_gcode(
         "materials": ",".join(m.name for m in design.materials),
         **(comments or {}),
     }
-    with atomic_output(output) as handle:
+    # with workers, a process verifies the file while it is written; forked before the
+    # output is opened, it holds none of its buffers
+    follower = Consumer(_verify_written, settings) if verify and (jobs > 1 or scheduler) else None
+    with contextlib.ExitStack() as cleanup:
+        if follower:
+            cleanup.enter_context(follower)
+        handle = cleanup.enter_context(atomic_output(output))
+        cleanup.callback(stream.close)  # on an error, stop the workers here and now
+        if follower:
+            follower.send(handle.name)
         writer = GcodeWriter(
             handle, settings, palette, dialect, comments=header, thumbnails=thumbnails, now=_build_time()
         )
         writer.write_header()
         for plan in stream:
             writer.write_layer(plan)
+            if follower:
+                handle.flush()
+                follower.send(os.fstat(handle.fileno()).st_size)
         stats = writer.finish()
         handle.flush()
         if verify:
-            faults = verify_gcode(FilePath(handle.name), settings)
+            faults = follower.result() if follower else verify_gcode(FilePath(handle.name), settings)
             if faults:
                 raise SliceError(
                     "the G-code fails verification against the machine profile; nothing was written:\n"
@@ -293,6 +307,13 @@ def slice_to_gcode(
         }
     )
     return SliceResult(output=FilePath(output), stats=stats)
+
+
+def _verify_written(messages: Iterator, settings: Settings) -> list:
+    """Faults of the file being written: ``messages`` is its name, then its size after
+    each flush (see :func:`fgslice.machine.verify.follow_file`)."""
+    name = next(messages)
+    return verify_gcode_blocks(follow_file(name, messages), settings, name=name)
 
 
 def _build_time() -> datetime | None:

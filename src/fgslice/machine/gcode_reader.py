@@ -25,7 +25,7 @@ from __future__ import annotations
 import io
 import math
 import os
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import BinaryIO
@@ -165,29 +165,39 @@ def _open(path_or_text: str | os.PathLike | bytes) -> tuple[BinaryIO, str | None
     return io.BytesIO(str(path_or_text).encode("utf-8", errors="replace")), None
 
 
-def _line_chunks(stream: BinaryIO, name: str | None, chunk_lines: int) -> Iterator[bytes]:
-    """The stream's text in pieces of whole lines: at most ``chunk_lines`` lines, and at most
-    one block of ``_BLOCK_BYTES`` bytes unless a single line is longer. Only the last piece
-    may lack its final newline.
+def _blocks(stream: BinaryIO, name: str | None) -> Iterator[bytes]:
+    """The stream's bytes in blocks of ``_BLOCK_BYTES``.
 
     Raises:
-        GcodeError: the stream cannot be read or starts with binary data.
+        GcodeError: the stream cannot be read.
     """
-    rest = b""
-    probe = True
     while True:
         try:
             block = stream.read(_BLOCK_BYTES)
         except OSError as exc:
             raise GcodeError(f"cannot read G-code: {exc.strerror}", file=name) from None
+        if not block:
+            return
+        yield block
+
+
+def _line_chunks(blocks: Iterable[bytes], name: str | None, chunk_lines: int) -> Iterator[bytes]:
+    """The text of ``blocks`` (bytes split anywhere) in pieces of whole lines: at most
+    ``chunk_lines`` lines, and at most one block unless a single line is longer. Only the
+    last piece may lack its final newline.
+
+    Raises:
+        GcodeError: the text starts with binary data.
+    """
+    rest = b""
+    probe = True
+    for block in blocks:
+        if not block:
+            continue
         if probe and b"\x00" in block[:_BINARY_PROBE]:
             raise GcodeError("not G-code text: it holds binary data", file=name,
                              hint="binary G-code (.bgcode) is not supported; export plain G-code")
         probe = False
-        if not block:
-            if rest:
-                yield rest
-            return
         data = rest + block if rest else block
         newlines = np.flatnonzero(np.frombuffer(data, dtype=np.uint8) == 10)
         if not len(newlines):
@@ -199,6 +209,8 @@ def _line_chunks(stream: BinaryIO, name: str | None, chunk_lines: int) -> Iterat
         for a, b in zip(cuts[:-1], cuts[1:]):
             yield data[a:b]
         rest = data[cuts[-1] :]
+    if rest:
+        yield rest
 
 
 _TOKEN_WIDTH = 16
@@ -654,18 +666,29 @@ def iter_gcode(path_or_text: str | os.PathLike | bytes, *, chunk_lines: int = CH
         GcodeError: the input is not readable G-code text; or, after the last chunk, it
             was empty or had no moves.
     """
+    stream, name = _open(path_or_text)
+    with stream:
+        yield from iter_gcode_blocks(_blocks(stream, name), chunk_lines=chunk_lines, name=name)
+
+
+def iter_gcode_blocks(blocks: Iterable[bytes], *, chunk_lines: int = CHUNK_LINES,
+                      name: str | None = None) -> Iterator[GcodeProgram]:
+    """:func:`iter_gcode` over G-code that arrives as byte blocks split anywhere (a file
+    read while it is written, say); ``name`` is the file named in errors.
+
+    Raises:
+        GcodeError: as :func:`iter_gcode`.
+    """
     if chunk_lines < 1:
         raise ValueError("chunk_lines must be at least 1")
-    stream, name = _open(path_or_text)
     reader = _Reader()
     blank = True
     moves = 0
-    with stream:
-        for data in _line_chunks(stream, name, chunk_lines):
-            blank = blank and data.isspace()
-            program = reader.chunk(data)
-            moves += len(program.e)
-            yield program
+    for data in _line_chunks(blocks, name, chunk_lines):
+        blank = blank and data.isspace()
+        program = reader.chunk(data)
+        moves += len(program.e)
+        yield program
     if blank:
         raise GcodeError("the G-code is empty", file=name)
     if not moves:

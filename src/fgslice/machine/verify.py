@@ -24,21 +24,27 @@
 
 Consecutive faulty moves of one kind are reported once, at the first line, with the
 number of moves and the last line (also when the run spans chunks of a streamed file).
+
+Files are checked in chunks (bounded memory); :func:`verify_gcode_blocks` with
+:func:`follow_file` checks a file while another process is still writing it, so the
+slicer verifies its output alongside writing it.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Iterator
 
 import numpy as np
 
-from fgslice.machine.gcode_reader import CHUNK_LINES, MIX_LETTERS, Fault, GcodeProgram, iter_gcode
+from fgslice.machine.gcode_reader import CHUNK_LINES, MIX_LETTERS, Fault, GcodeProgram, iter_gcode, iter_gcode_blocks
 from fgslice.settings import Settings
 
 BED_TOLERANCE_MM = 0.1
 PRIME_ALLOWANCE_MM = 10.0
 MIX_SUM_TOLERANCE = 0.002
+#: Bytes :func:`follow_file` waits for before reading a growing file.
+FOLLOW_BLOCK_BYTES = 4 << 20
 
 
 class _Runs:
@@ -244,6 +250,35 @@ def verify_gcode(program_or_path: GcodeProgram | str | os.PathLike, settings: Se
         for chunk in iter_gcode(program_or_path, chunk_lines=chunk_lines):
             verifier.add(chunk)
     return verifier.faults()
+
+
+def verify_gcode_blocks(blocks: Iterable[bytes], settings: Settings, *, name: str | None = None,
+                        chunk_lines: int = CHUNK_LINES) -> list[Fault]:
+    """:func:`verify_gcode` of G-code arriving as byte blocks split anywhere (see
+    :func:`follow_file`); ``name`` is the file named in errors.
+
+    Raises:
+        GcodeError: the text is not readable G-code.
+    """
+    verifier = _Verifier(settings)
+    for chunk in iter_gcode_blocks(blocks, chunk_lines=chunk_lines, name=name):
+        verifier.add(chunk)
+    return verifier.faults()
+
+
+def follow_file(path: str | os.PathLike, sizes: Iterable[int], *, min_block: int = FOLLOW_BLOCK_BYTES) -> Iterator[bytes]:
+    """The bytes of a file that another process is writing: each size in ``sizes`` says
+    the file holds at least that many bytes (flushed); blocks of at least ``min_block``
+    bytes are read as they become available, the rest once ``sizes`` ends."""
+    with open(path, "rb") as handle:
+        done = 0
+        for size in sizes:
+            if size - done >= min_block:
+                block = handle.read(size - done)
+                done += len(block)
+                yield block
+        while block := handle.read(min_block):
+            yield block
 
 
 def format_faults(faults: list[Fault], limit: int = 50) -> str:
