@@ -28,8 +28,8 @@ from fgslice.settings import Settings
 from fgslice.slicing.layers import LayerRegions
 from fgslice.toolpaths.infill import dense_levels, solid_fill, uncovered_area
 from fgslice.toolpaths.paths import LayerPaths, Role
-from fgslice.toolpaths.simplify import simplify_paths
-from fgslice.toolpaths.walls import bead_spacing, offset
+from fgslice.toolpaths.simplify import simplify_paths, simplify_polygons
+from fgslice.toolpaths.walls import OUTLINE_TOLERANCE, bead_spacing, offset
 
 
 SURFACE_TOLERANCE = 0.05
@@ -41,7 +41,7 @@ def layer_paths(regions: LayerRegions, settings: Settings) -> LayerPaths:
     """Dense toolpaths of every color face of one layer (colors = face indices)."""
     w, h = settings.bead_width, settings.layer_height
     s = bead_spacing(w, h)
-    faces = shapely.simplify(np.asarray(regions.faces, dtype=object), simplify_tolerance(settings), preserve_topology=False)
+    faces = simplify_polygons(np.asarray(regions.faces, dtype=object), simplify_tolerance(settings))
     out = LayerPaths(regions.index, regions.z, regions.height)
     if len(faces) == 0:
         return out
@@ -62,15 +62,16 @@ def simplify_tolerance(settings: Settings) -> float:
 
 
 def _roles(loops, outline, width: float) -> np.ndarray:
-    """Per loop: EXTERNAL_PERIMETER for outermost loops along the outline's boundary,
-    PERIMETER for the other outermost loops, SOLID_INFILL inside."""
+    """Per loop: EXTERNAL_PERIMETER for outermost loops along the outline's boundary
+    (simplified like the walls' outline), PERIMETER for the other outermost loops,
+    SOLID_INFILL inside."""
     roles = np.where(loops.level == 0, Role.PERIMETER, Role.SOLID_INFILL)
     first = np.flatnonzero(loops.level == 0)
     if len(first) == 0:
         return roles
     outer = (loops.level == 0)[loops.ring]
     rings = shapely.linestrings(loops.coords[outer], indices=np.searchsorted(first, loops.ring[outer]))
-    boundary = shapely.boundary(outline)
+    boundary = shapely.boundary(simplify_polygons(outline, OUTLINE_TOLERANCE))
     shapely.prepare(boundary)
     surface = shapely.dwithin(boundary, rings, width / 2 + SURFACE_TOLERANCE)
     roles[first[surface]] = Role.EXTERNAL_PERIMETER
