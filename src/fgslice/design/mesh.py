@@ -371,8 +371,11 @@ def _stitch(node_ids: np.ndarray, points: np.ndarray, plane: np.ndarray, gap_tol
     pred = np.full(n_half, -1)
     pred[succ[linked]] = half[linked]
     # every half-end has at most one successor and one predecessor: the walks are
-    # disjoint chains and loops, each labelled by its smallest half-end
-    label = np.minimum(_reach_min(succ), _reach_min(pred))
+    # disjoint chains and loops, each labelled by its smallest half-end (a loop's is
+    # reached going forwards, a chain's needs both ways)
+    label = _reach_min(succ)
+    if not linked.all():
+        label = np.minimum(label, _reach_min(pred))
     # each loop or chain is found twice, once per direction; keep the one holding an
     # even half-end as its smallest
     keep = label % 2 == 0
@@ -532,9 +535,11 @@ def _assemble(rings, ring_plane: np.ndarray, ring_direction: np.ndarray, n_plane
 
 def _side_by_side(polygons: np.ndarray, plane: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Polygons moved along x by their plane times a width, so planes never overlap; and the (N, 2) offsets."""
+    offsets = np.zeros((len(plane), 2))
+    if not plane.any():
+        return polygons, offsets
     bounds = shapely.total_bounds(polygons)
-    width = (bounds[2] - bounds[0]) * 2 + 1.0
-    offsets = np.column_stack([plane * width, np.zeros(len(plane))])
+    offsets[:, 0] = plane * ((bounds[2] - bounds[0]) * 2 + 1.0)
     per_coordinate = np.repeat(offsets, shapely.get_num_coordinates(polygons), axis=0)
     return shapely.transform(polygons, lambda xy: xy + per_coordinate), offsets
 
