@@ -185,3 +185,26 @@ def test_wall_order_is_kept_per_island(start):
             d = depth[island == i]
             assert np.all(sign * np.diff(d) >= -1e-6)  # outer -> inner, or inner -> outer
             assert d.max() - d.min() > 0.6  # three loops, 0.2 .. 0.91 mm deep
+
+
+def test_large_mixed_group_tours_every_path_once_and_short():
+    """Above the tree threshold and with more entries than one numpy pass handles: open
+    segments and closed loops of one color, all printed once, with a short tour."""
+    rng = np.random.default_rng(6)
+    segments = shuffled_grid(2500, rng)
+    loops = [loop(x, y, 0.4, n=12) for x, y in rng.uniform(0, 100, (300, 2))]
+    paths = segments + loops
+    rng.shuffle(paths)
+    plan = order_layer(LayerPaths(0, 0.2, 0.2, paths), np.arange(1), np.zeros(2), "infill_first")
+    out = plan.paths
+    assert len(out) == len(paths)
+    assert sum(p.closed for p in out) == len(loops)
+    key = lambda p: (p.closed, *np.sort(p.points, axis=0).round(9).ravel().tolist())
+    assert sorted(map(key, out)) == sorted(map(key, paths))
+    travel = travel_distance(out, np.zeros(2))
+    assert travel < 0.02 * travel_distance(paths, np.zeros(2))
+    for p in out:
+        if p.closed:
+            continue
+        # each open segment is printed from one end to the other of its original
+        assert np.isclose(np.hypot(*(p.points[-1] - p.points[0])), 1.5)

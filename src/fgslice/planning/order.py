@@ -365,8 +365,9 @@ class _TreeSearch:
         self.cKDTree = cKDTree
         self.xy = layer.entry_xy[e0:e1].copy()
         self.points = np.column_stack((self.xy.real, self.xy.imag))
-        self.printed = np.zeros(self.xy.size, dtype=bool)
-        self.printed_list = [False] * self.xy.size
+        # One flag byte per entry, read per item in Python and as a numpy view.
+        self.printed_bytes = bytearray(self.xy.size)
+        self.printed = np.frombuffer(self.printed_bytes, dtype=bool)
         self.alive = self.xy.size
         self.tree = cKDTree(self.points)
         self.tree_ids = np.arange(self.xy.size)
@@ -378,7 +379,7 @@ class _TreeSearch:
         """Index (in the group) of the unprinted entry nearest ``at`` (the position of
         entry ``at_entry`` when that is not -1)."""
         if at_entry >= 0:
-            printed = self.printed_list
+            printed = self.printed_bytes
             for candidate in self.neighbours[at_entry]:
                 if not printed[candidate]:
                     return candidate
@@ -398,8 +399,7 @@ class _TreeSearch:
 
     def remove(self, lo: int, hi: int) -> None:
         """Entries ``lo..hi-1`` (one path's) are printed."""
-        self.printed[lo:hi] = True
-        self.printed_list[lo:hi] = [True] * (hi - lo)
+        self.printed_bytes[lo:hi] = b"\x01" * (hi - lo)
         self.alive -= hi - lo
 
     def _drop_printed(self) -> None:
