@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import shapely
 
-from fgslice.toolpaths.infill import concentric, line_fill, rectilinear, solid_fill
+from fgslice.toolpaths.infill import concentric, line_fill, rectilinear, rectilinear_many, solid_fill
 from fgslice.toolpaths.paths import Role, bead_area
 
 W, H = 0.4, 0.2
@@ -105,3 +105,15 @@ def test_line_fill_with_one_spacing_per_region_fills_each_on_its_own():
         assert len(np.unique(alone_chain)) == len(np.unique(chain[mine]))
     lines = shapely.linestrings(pts.reshape(-1, 2, 2))  # vertices 2j, 2j + 1: line j
     assert shapely.covers(area.buffer(1e-6), lines).all()
+
+
+def test_rectilinear_many_equals_separate_fills():
+    # several regions (overlapping, each its own density and role) in one pass give
+    # each region's own fill
+    area, box = region(), shapely.box(10, 10, 40, 30)
+    many = rectilinear_many([area, box, shapely.Polygon()], [20, 100, 50], 30, W, H,
+                            [Role.INTERNAL_INFILL, Role.SOLID_INFILL, Role.TOP_SOLID_INFILL])
+    alone = rectilinear(area, 20, 30, W, H, Role.INTERNAL_INFILL) + rectilinear(box, 100, 30, W, H, Role.SOLID_INFILL)
+    assert [p.role for p in many] == [p.role for p in alone]
+    assert all(np.allclose(a.points, b.points, atol=1e-9) for a, b in zip(many, alone))
+    assert volume([p for p in many if p.role is Role.SOLID_INFILL]) == pytest.approx(box.area * H, rel=0.05)

@@ -176,6 +176,7 @@ def line_fill(regions, spacing, angle_deg: float, width: float, *, link: bool = 
 
     ``spacing`` is one value, or one per region: each region is then clipped on its
     own, so the regions may overlap (e.g. one region at several candidate spacings).
+    ``link`` is one flag, or one per region.
 
     Returns:
         ``(points, chain, owner)``: the ``(M, 2)`` vertices of every polyline in the bed
@@ -198,17 +199,21 @@ def line_fill(regions, spacing, angle_deg: float, width: float, *, link: bool = 
     if len(line) == 0:
         return empty
     owner = ring_owner[src]
-    if link:
+    if np.any(link):
         shapely.prepare(regions)
         a, b = _links(regions, owner, line, x0, x1, y, spacing, angle_deg)
+        if np.ndim(link):
+            linked = np.asarray(link, dtype=bool)[owner[a]]
+            a, b = a[linked], b[linked]
     else:
         a = b = np.empty(0, int)
     pts, chain, chain_owner = _serpentines(line, x0, x1, y, owner, a, b)
     return _rotate(pts, angle_deg), chain, chain_owner
 
 
-def _lengths(points: np.ndarray, chain: np.ndarray) -> tuple[float, float]:
-    """Total length of lines and of links of :func:`line_fill` polylines, mm.
+def _lengths(points: np.ndarray, chain: np.ndarray, owner: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """Total length of lines and of links of :func:`line_fill` polylines per region
+    (``owner`` per polyline, ``count`` regions), mm.
 
     Every polyline starts at an even vertex index and alternates line, link, line...,
     so segment ``i`` is a line exactly when ``i`` is even.
@@ -216,7 +221,10 @@ def _lengths(points: np.ndarray, chain: np.ndarray) -> tuple[float, float]:
     seg = np.hypot(*np.diff(points, axis=0).T)
     same = chain[1:] == chain[:-1]
     even = np.arange(len(seg)) % 2 == 0
-    return float(seg[same & even].sum()), float(seg[same & ~even].sum())
+    region = owner[chain[:-1]]
+    lines = np.bincount(region[same & even], seg[same & even], minlength=count)
+    links = np.bincount(region[same & ~even], seg[same & ~even], minlength=count)
+    return lines, links
 
 
 def rectilinear(
@@ -230,35 +238,66 @@ def rectilinear(
     color: int = 0,
     link: bool = True,
 ) -> list[Path]:
-    """Rectilinear fill of ``region`` at ``density`` percent (lines linked into serpentines).
+    """Rectilinear fill of ``region`` at ``density`` percent (lines linked into serpentines);
+    see :func:`rectilinear_many`."""
+    return rectilinear_many([region], [density], angle_deg, width, height, [role], color=color, link=link)
 
-    The spacing starts at ``s * 100 / density``; when lines plus links then miss
-    ``area * h * density / 100`` of volume by more than :data:`VOLUME_TOLERANCE`, the
-    spacing is corrected for the measured link length (links are dropped if they would
-    take more than half of the length) and the candidate spacings around it
-    (:data:`SPACING_CANDIDATES`, all in one :func:`line_fill` pass) are tried, keeping
-    the one closest in volume: with few lines, whole lines appear or vanish as the grid
-    shifts.
+
+def rectilinear_many(
+    regions,
+    densities,
+    angle_deg: float,
+    width: float,
+    height: float,
+    roles,
+    *,
+    color: int = 0,
+    link: bool = True,
+) -> list[Path]:
+    """Rectilinear fills of several regions (each at its density, percent, with its
+    role), lines linked into serpentines; the paths of region 0 first, then region 1...
+
+    Each region is filled on its own (regions may overlap) but all in one
+    :func:`line_fill` pass. The spacing starts at ``s * 100 / density``; when lines plus
+    links then miss ``area * h * density / 100`` of volume by more than
+    :data:`VOLUME_TOLERANCE`, the spacing is corrected for the measured link length
+    (links are dropped if they would take more than half of the length) and the
+    candidate spacings around it (:data:`SPACING_CANDIDATES`, for all such regions in
+    a second pass) are tried, keeping the one closest in volume: with few lines, whole
+    lines appear or vanish as the grid shifts.
     """
-    if density <= 0 or region.is_empty:
+    regions = np.asarray(regions, dtype=object)
+    densities = np.asarray(densities, dtype=float)
+    keep = np.flatnonzero((densities > 0) & ~shapely.is_empty(regions))
+    if len(keep) == 0:
         return []
-    spacing = bead_spacing(width, height) * 100.0 / density
-    points, chain, _ = line_fill(region, spacing, angle_deg, width, link=link)
-    lines, links = _lengths(points, chain)
-    target = region.area * density / 100.0 / bead_spacing(width, height)
-    if lines > 0 and abs(lines + links - target) > VOLUME_TOLERANCE * target:
-        link = link and target - links > 0.5 * target
-        corrected = lines * spacing / (target - links if link else target)
-        factors = np.asarray(SPACING_CANDIDATES)
-        pts, ch, owner = line_fill(np.full(len(factors), region, dtype=object), corrected * factors, angle_deg, width, link=link)
-        same = ch[1:] == ch[:-1]
-        total = np.bincount(owner[ch[:-1][same]], np.hypot(*np.diff(pts, axis=0).T)[same], minlength=len(factors))
-        error = np.abs(total - target)
-        best = int(np.argmin(error))
-        if error[best] < abs(lines + links - target):
-            keep = owner[ch] == best
-            points, chain = pts[keep], ch[keep]
-    return open_paths(points, chain, role, color, width, height)
+    regions, densities, roles = regions[keep], densities[keep], [roles[i] for i in keep.tolist()]
+    n, s = len(keep), bead_spacing(width, height)
+    spacing = s * 100.0 / densities
+    points, chain, owner = line_fill(regions, spacing, angle_deg, width, link=link)
+    lines, links = _lengths(points, chain, owner, n)
+    target = shapely.area(regions) * densities / 100.0 / s
+    error = np.abs(lines + links - target)
+    retry = np.flatnonzero((lines > 0) & (error > VOLUME_TOLERANCE * target))
+    fills = [(points, chain, owner == r) for r in range(n)]
+    if len(retry):
+        linked = link & (target[retry] - links[retry] > 0.5 * target[retry])
+        corrected = lines[retry] * spacing[retry] / np.where(linked, target[retry] - links[retry], target[retry])
+        k = len(SPACING_CANDIDATES)
+        pts, ch, own = line_fill(
+            np.repeat(regions[retry], k), np.outer(corrected, SPACING_CANDIDATES).ravel(), angle_deg, width,
+            link=np.repeat(linked, k),
+        )
+        tried = np.abs(np.sum(_lengths(pts, ch, own, len(retry) * k), axis=0).reshape(-1, k) - target[retry, None])
+        best = np.argmin(tried, axis=1)
+        for j, r in enumerate(retry.tolist()):
+            if tried[j, best[j]] < error[r]:
+                fills[r] = (pts, ch, own == j * k + best[j])
+    paths = []
+    for (pts, ch, mine), role in zip(fills, roles):
+        chosen = mine[ch]
+        paths += open_paths(pts[chosen], ch[chosen], role, color, width, height)
+    return paths
 
 
 def solid_fill(regions, angle_deg: float, width: float, height: float, role: Role, colors) -> list[Path]:

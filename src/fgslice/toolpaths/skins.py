@@ -19,7 +19,7 @@ import numpy as np
 import shapely
 
 from fgslice.settings import Settings
-from fgslice.toolpaths.infill import concentric, rectilinear
+from fgslice.toolpaths.infill import concentric, rectilinear_many
 from fgslice.toolpaths.paths import Path, Role
 from fgslice.toolpaths.simplify import simplify_polygons
 from fgslice.toolpaths.walls import OUTLINE_TOLERANCE
@@ -91,14 +91,16 @@ def split_inner(inner, outline, below: Sequence, above: Sequence, settings: Sett
 def fill_inner(areas: InnerAreas, layer_index: int, settings: Settings) -> list[Path]:
     """Fill skins with 100 % rectilinear and the sparse area with the chosen pattern.
 
-    Lines run at ``infill_angle`` on even layers and ``infill_angle + 90`` on odd ones.
+    Lines run at ``infill_angle`` on even layers and ``infill_angle + 90`` on odd ones;
+    the rectilinear fills of a layer are computed together (:func:`rectilinear_many`).
     """
     w, h = settings.bead_width, settings.layer_height
     angle = settings.infill_angle + 90.0 * (layer_index % 2)
-    paths = rectilinear(areas.top, 100.0, angle, w, h, Role.TOP_SOLID_INFILL)
-    paths += rectilinear(areas.solid, 100.0, angle, w, h, Role.SOLID_INFILL)
+    fills = [(areas.top, 100.0, Role.TOP_SOLID_INFILL), (areas.solid, 100.0, Role.SOLID_INFILL)]
+    if settings.infill_pattern != "concentric":
+        fills.append((areas.sparse, settings.infill_density, Role.INTERNAL_INFILL))
+    regions, densities, roles = zip(*fills)
+    paths = rectilinear_many(regions, densities, angle, w, h, roles)
     if settings.infill_pattern == "concentric":
         paths += concentric(areas.sparse, settings.infill_density, w, h, Role.INTERNAL_INFILL)
-    else:
-        paths += rectilinear(areas.sparse, settings.infill_density, angle, w, h, Role.INTERNAL_INFILL)
     return paths
