@@ -44,15 +44,36 @@ from fgslice.slicing.palette import Palette
 MAX_GRID_POINTS = 40_000_000
 
 
-def _as_multipolygon(geometries: np.ndarray) -> np.ndarray:
-    """Keep the polygonal parts of each geometry, as one MultiPolygon per input (empty if none)."""
-    parts, index = shapely.get_parts(geometries, return_index=True)
+def _group_polygons(parts: np.ndarray, index: np.ndarray, n: int) -> np.ndarray:
+    """One MultiPolygon per ``0..n-1`` of the non-empty polygons among ``parts``, grouped by ``index``."""
     keep = shapely.get_type_id(parts) == shapely.GeometryType.POLYGON
     keep &= ~shapely.is_empty(parts)
-    out = np.array([shapely.MultiPolygon() for _ in range(len(geometries))], dtype=object)
+    out = np.array([shapely.MultiPolygon() for _ in range(n)], dtype=object)
     if keep.any():
         shapely.multipolygons(parts[keep], indices=index[keep], out=out)
     return out
+
+
+def _as_multipolygon(geometries: np.ndarray) -> np.ndarray:
+    """Keep the polygonal parts of each geometry, as one MultiPolygon per input (empty if none)."""
+    parts, index = shapely.get_parts(geometries, return_index=True)
+    return _group_polygons(parts, index, len(geometries))
+
+
+def _clipped(faces: np.ndarray, outline: shapely.Geometry) -> np.ndarray:
+    """Each face intersected with ``outline``, as MultiPolygons.
+
+    Only the face polygons crossing the outline's boundary go through the overlay;
+    those strictly inside it are kept as they are and those outside dropped.
+    """
+    parts, index = shapely.get_parts(faces, return_index=True)
+    shapely.prepare(outline)
+    inside = shapely.contains_properly(outline, parts)
+    crossing = ~inside & shapely.intersects(outline, parts)
+    parts[crossing] = shapely.intersection(parts[crossing], outline)
+    keep = inside | crossing
+    pieces, piece = shapely.get_parts(parts[keep], return_index=True)
+    return _group_polygons(pieces, index[keep][piece], len(faces))
 
 
 def polygonal(geometry: shapely.Geometry) -> shapely.MultiPolygon:
@@ -193,7 +214,7 @@ def color_faces(
         faces = bands[0][palette.cells[:, 0]]
         for i in range(1, k):
             faces = shapely.intersection(faces, bands[i][palette.cells[:, i]])
-    faces = _as_multipolygon(shapely.intersection(faces, outline))
+    faces = _clipped(faces, outline)
     covered = shapely.area(faces).sum()
     if outline.area - covered > 1e-9 * max(outline.area, 1.0):
         faces = _fill_remainder(outline, faces, field, palette, z)
