@@ -14,7 +14,8 @@ bed. Faces are computed without a polygon arrangement:
    ``j/m <= f < (j+1)/m`` (the field is negated, since contourpy's bands are
    ``lower < z <= upper``), and the outermost bands are open-ended so the bands tile the
    whole grid;
-3. each face is intersected with the outline (vectorized shapely); whatever part of the
+3. each face is intersected with the outline (vectorized shapely; only its polygons
+   crossing the outline's boundary go through the overlay); whatever part of the
    outline is left over (slivers from numerical noise, points where several iso-lines
    meet) goes to the color found at its representative point, so the faces are
    disjoint and their union is the outline.
