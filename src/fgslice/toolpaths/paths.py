@@ -27,9 +27,14 @@ class Role(Enum):
     CUSTOM = "Custom"
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(eq=False)
 class Path:
     """One extrusion polyline.
+
+    Treated as immutable: stages make new paths (``with_color``, the constructor) rather
+    than assign to a path's fields. The class is not ``frozen`` only because a frozen
+    dataclass's constructor costs about six times more, and a layer makes hundreds of
+    thousands of paths when cutting into colors.
 
     Attributes:
         points: ``(N, 2)`` float64 array of XY positions in the bed frame, mm; N >= 2.
