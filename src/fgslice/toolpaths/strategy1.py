@@ -8,7 +8,9 @@ middle of pieces of at most ten bead widths, and densely (sub-segments of at mos
 the color (or zipper color, see :mod:`fgslice.toolpaths.zipper`) changes between two
 consecutive sub-segments, the cut is placed at the crossing by a vectorized search
 along the path (:func:`_refine`). Pieces shorter
-than a bead are merged into their longer neighbour. Units mm; bed frame.
+than a bead are merged into their longer neighbour. Units mm; bed frame. Inside,
+points are complex numbers ``x + iy`` in 1-D arrays (cheap to gather, unlike rows of
+``(N, 2)`` arrays) and only the sub-segments at cuts or in zipper bands are looked up.
 """
 
 from __future__ import annotations
@@ -140,7 +142,6 @@ class _Sub:
     positions in mm, points complex."""
 
     pid: np.ndarray
-    segment: np.ndarray
     length: np.ndarray
     arc_start: np.ndarray
     start: np.ndarray
@@ -187,7 +188,6 @@ class _Dense:
         length = self.length[p]
         return _Sub(
             pid=self.pid[p],
-            segment=self.segment[p],
             length=length,
             arc_start=self.arc0[p] + length * j,
             start=self.origin[p] + self.step[p] * j,
