@@ -192,7 +192,7 @@ def make_walls(outline, count: int, width: float, height: float, *, outer_first:
     levels = offset(outline, -np.r_[dist, dist[-1] + s / 2, dist[-1] + s])
     centers, inner = levels[:count], levels[count]
     unchanged = _same_combinatorics(levels[:count], np.r_[levels[1:count], levels[count + 1]])
-    redo = np.flatnonzero(~unchanged if _mitres_exact(outline) else np.ones(count, dtype=bool))
+    redo = np.flatnonzero(~unchanged if unchanged.any() and _mitres_exact(outline) else np.ones(count, dtype=bool))
     if len(redo):
         centers[redo] = offset(offset(outline, -(dist[redo] + s / 2)), s / 2)
     coords, ring_idx, loop = ring_groups(centers)
