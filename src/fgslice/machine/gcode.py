@@ -57,6 +57,8 @@ from fgslice.settings import Settings
 from fgslice.toolpaths.paths import Path, Role, bead_area
 
 INT_DIGITS = 9
+#: Bodies the writer keeps of paths it formatted itself, reused for equal geometry.
+MADE_BODIES = 4096
 ROLES = tuple(Role)
 ROLE_CODE = {role: k for k, role in enumerate(ROLES)}
 TYPE_LINES = np.array([f";TYPE:{role.value}\n" for role in ROLES] + [""], dtype=object)
@@ -355,6 +357,7 @@ class GcodeWriter:
         self._bbox_max = np.full(3, -np.inf)
         self._skipped_paths = 0
         self._colors_used: set[int] = set()
+        self._made: dict[tuple, tuple] = {}  # bodies formatted here, by geometry (purge lines repeat)
 
     # -- header ---------------------------------------------------------------------
     def write_header(self) -> None:
@@ -456,28 +459,48 @@ class GcodeWriter:
         return f"G1 E{fmt(sign * s.retract_length, 5)} F{fmt(s.retract_speed * 60, 1)}\n"
 
     def _bodies(self, paths: list[Path], prepared: Prepared | None) -> tuple[PathBodies, np.ndarray, str]:
-        """The bodies of ``paths``: the prepared ones, the others formatted now; returns
-        the bodies, each path's row in them and the text the rows' bounds index."""
+        """The bodies of ``paths``: the prepared ones, the others formatted now (all in
+        bulk when none is prepared; else one by one, reused by geometry from ``_made``:
+        purge lines repeat from layer to layer); returns the bodies, each path's row in them and the text the
+        rows' bounds index."""
         rows = np.full(len(paths), -1, dtype=np.int64)
         if prepared is not None:
             get = prepared.rows.get
             rows[:] = [get(p, -1) for p in paths]
-        missing = np.flatnonzero(rows < 0)
-        if not len(missing):
-            return prepared.data, rows, prepared.data.text
-        fresh = format_bodies([paths[i] for i in missing.tolist()], self.filament_area)
-        if len(missing) == len(paths):
+        else:
+            fresh = format_bodies(paths, self.filament_area)
             return fresh, np.arange(len(paths)), fresh.text
-        old: PathBodies = prepared.data
+        missing = np.flatnonzero(rows < 0).tolist()
+        if not missing:
+            return prepared.data, rows, prepared.data.text
+        made = self._made
+        if len(made) > MADE_BODIES:
+            made.clear()
+        keys = [(p.points.tobytes(), p.closed, p.width, p.height) for p in (paths[i] for i in missing)]
+        new = {k: paths[i] for k, i in zip(keys, missing) if k not in made}
+        if new:
+            fresh = format_bodies(list(new.values()), self.filament_area)
+            cuts = fresh.bounds.tolist()
+            columns = zip(fresh.start.tolist(), fresh.end.tolist(), fresh.low.tolist(), fresh.high.tolist(),
+                          fresh.e.tolist(), fresh.length.tolist())
+            for key, a, b, row in zip(new, cuts[:-1], cuts[1:], columns):
+                made[key] = (fresh.text[a:b], *row)
+        texts, start, end, low, high, e, length = zip(*map(made.__getitem__, keys))
+        sizes = np.fromiter(map(len, texts), dtype=np.int64, count=len(texts))
+        old = prepared.data
         n_old = len(old.e)
         rows[missing] = n_old + np.arange(len(missing))
         joined = PathBodies(
             text="",
-            bounds=np.concatenate([old.bounds, fresh.bounds[1:] + len(old.text)]),
-            **{name: np.concatenate([getattr(old, name), getattr(fresh, name)])
-               for name in ("start", "end", "low", "high", "e", "length")},
+            bounds=np.concatenate([old.bounds, old.bounds[-1] + np.cumsum(sizes)]),
+            start=np.concatenate([old.start, np.array(start).reshape(-1, 2)]),
+            end=np.concatenate([old.end, np.array(end).reshape(-1, 2)]),
+            low=np.concatenate([old.low, np.array(low).reshape(-1, 2)]),
+            high=np.concatenate([old.high, np.array(high).reshape(-1, 2)]),
+            e=np.concatenate([old.e, e]),
+            length=np.concatenate([old.length, length]),
         )
-        return joined, rows, old.text + fresh.text
+        return joined, rows, old.text + "".join(texts)
 
     def _write_paths(
         self,
