@@ -28,20 +28,22 @@ from fgslice.toolpaths.walls import OUTLINE_TOLERANCE
 def covered(region, neighbours: Sequence, count: int):
     """Part of ``region`` covered by all of the ``count`` nearest ``neighbours``.
 
-    ``neighbours`` are the outlines of the adjacent layers, nearest first (simplified to
-    :data:`~fgslice.toolpaths.walls.OUTLINE_TOLERANCE` here); missing layers count as
-    empty, so nothing is covered when fewer than ``count`` are given. ``count = 0``
-    covers everything (``region`` itself is returned). Neighbours that cover ``region``
-    are recognised by a predicate, without any overlay, and ``region`` itself is then
-    returned too (as for an empty ``region``).
+    ``neighbours`` are the outlines of the adjacent layers, nearest first; missing
+    layers count as empty, so nothing is covered when fewer than ``count`` are given.
+    ``count = 0`` covers everything (``region`` itself is returned). Neighbours that
+    cover ``region`` are recognised by a predicate, without any overlay, and ``region``
+    itself is then returned too (as for an empty ``region``); otherwise the neighbours
+    are simplified to :data:`~fgslice.toolpaths.walls.OUTLINE_TOLERANCE` and
+    intersected with ``region``.
     """
     if count == 0 or region.is_empty:
         return region
     if len(neighbours) < count:
         return shapely.Polygon()
-    near = simplify_polygons(np.asarray(list(neighbours[:count]), dtype=object), OUTLINE_TOLERANCE)
+    near = np.asarray(list(neighbours[:count]), dtype=object)
     if np.all(shapely.covers(near, region)):
         return region
+    near = simplify_polygons(near, OUTLINE_TOLERANCE)
     return shapely.intersection_all(np.r_[near, np.asarray([region], dtype=object)])
 
 
