@@ -208,3 +208,31 @@ def test_large_mixed_group_tours_every_path_once_and_short():
             continue
         # each open segment is printed from one end to the other of its original
         assert np.isclose(np.hypot(*(p.points[-1] - p.points[0])), 1.5)
+
+
+@pytest.mark.parametrize("layout", ["curves", "cluster"])
+def test_grid_tour_is_the_exact_nearest_entry_tour(layout, monkeypatch):
+    """Large groups (grid of entries, precomputed neighbours, live block search) pick the
+    same next path as one numpy pass over all entries does at every step: entries along
+    thin curves across a wide box, and a dense cluster with far outliers and loops."""
+    from fgslice.planning import order
+
+    rng = np.random.default_rng(7)
+    if layout == "curves":
+        # Pieces of infill between two wavy boundaries, in several bands over 150 mm.
+        x = rng.uniform(0, 150, 3000)
+        band = rng.integers(0, 5, x.size) * 30.0
+        y0 = band + 3 * np.sin(x / 9)
+        paths = [segment(a, b, a + 0.3, b + 4 + rng.uniform(0, 0.5)) for a, b in zip(x, y0)]
+    else:
+        centre = rng.normal(0, 0.5, (2500, 4)) + 50
+        paths = [segment(*row) for row in centre] + [segment(*rng.uniform(0, 400, 4)) for _ in range(40)]
+        paths += [loop(x, y, 0.6, n=9) for x, y in rng.uniform(45, 55, (60, 2))]
+    rng.shuffle(paths)
+    layer = LayerPaths(0, 0.2, 0.2, paths)
+    grid = order_layer(layer, np.arange(1), np.array([-20.0, 10.0]), "infill_first").paths
+    monkeypatch.setattr(order, "GRID_MIN_PATHS", len(paths) + 1)
+    scan = order_layer(layer, np.arange(1), np.array([-20.0, 10.0]), "infill_first").paths
+    assert len(grid) == len(scan) == len(paths)
+    assert all(np.array_equal(g.points, s.points) for g, s in zip(grid, scan))
+    assert np.isclose(travel_distance(grid, np.zeros(2)), travel_distance(scan, np.zeros(2)))

@@ -22,9 +22,9 @@ The layer's paths are sorted once so that every color group, and every unit in i
 contiguous run; their points, ends and entries are gathered into layer-wide arrays
 (points as complex numbers ``x + iy``, so a distance is one ``abs``). A group with few
 loose paths finds each nearest entry with one numpy pass over the group's entries
-(printed ones set to infinity); a large group uses a :class:`scipy.spatial.cKDTree`
-(imported only then) with each entry's nearest neighbours precomputed. Only paths that
-change get a new :class:`Path`. Coordinates are bed-frame mm.
+(printed ones set to infinity); a large group buckets its entries in a uniform grid
+(:class:`_EntryGrid`) with each entry's nearest neighbours precomputed from it. Only paths
+that change get a new :class:`Path`. Coordinates are bed-frame mm.
 """
 
 from __future__ import annotations
@@ -48,14 +48,19 @@ SKIRT_COLOR = -1
 #: Closed paths are entered at any vertex, but the search holds one vertex per this much
 #: arc length (mm); the exact nearest vertex is chosen once the path is picked.
 CLOSED_ENTRY_SPACING_MM = 1.0
-#: Groups with at least this many loose paths are toured with a k-d tree; smaller ones by
-#: one numpy pass over the group's entries per path.
-TREE_MIN_PATHS = 128
-#: Neighbours precomputed per entry (tree tours).
+#: Groups with at least this many loose paths are toured with a grid of their entries;
+#: smaller ones by one numpy pass over the group's entries per path.
+GRID_MIN_PATHS = 128
+#: Grid tours: entries per grid cell, on average over the entries' bounding box.
+ENTRIES_PER_CELL = 4
+#: Grid tours: the grid has at most this many cells per entry (bounds its memory).
+MAX_CELLS_PER_ENTRY = 16
+#: Grid tours: neighbours precomputed per entry (at most; those within one cell size).
 NEIGHBOURS = 6
-#: Neighbours asked for first when the precomputed ones are all visited (tree tours).
-FALLBACK_K = 64
-#: Tree tours: below this many unvisited entries, nearest-entry queries are one numpy pass.
+#: Grid tours: an entry whose 3x3 cells hold more entries than this gets no precomputed
+#: neighbours (bounds the work on dense clusters).
+NEIGHBOUR_CANDIDATES = 256
+#: Grid tours: below this many unprinted entries, nearest-entry queries are one numpy pass.
 BRUTE_FORCE_ENTRIES = 4096
 
 _FAR = complex(np.inf, np.inf)
@@ -308,7 +313,7 @@ def _tour(layer: _Layer, a: int, b: int, x: float, y: float, out: list[Step]) ->
     """Greedy nearest-entry tour of the loose paths ``a..b-1``; appends the oriented paths
     to ``out`` and returns the final XY (mm)."""
     e0, e1 = layer.entry_offsets[a], layer.entry_offsets[b]
-    search = (_TreeSearch if b - a >= TREE_MIN_PATHS else _ScanSearch)(layer, e0, e1)
+    search = (_GridSearch if b - a >= GRID_MIN_PATHS else _ScanSearch)(layer, e0, e1)
     entry_path = layer.entry_path[e0:e1].tolist()
     entry_reverses = layer.entry_reverses[e0:e1].tolist()
     entry_offsets = layer.entry_offsets
@@ -348,67 +353,170 @@ class _ScanSearch:
         self.xy[lo:hi] = _FAR
 
 
-class _TreeSearch:
-    """Nearest unprinted entry from a :class:`scipy.spatial.cKDTree` of a group's entries.
+class _GridSearch:
+    """Nearest unprinted entry of a large group, from a uniform grid of its entries.
 
-    Each entry's nearest neighbours are precomputed in one batched query: after an open
-    path the nozzle stands on an entry, and the next entry is usually the first unprinted
-    one in that short list. Otherwise (after a closed path, or all those printed) a live
-    query: one numpy pass when few entries are left, else the tree asked for
-    :data:`FALLBACK_K` entries, then more; the tree is rebuilt over the unprinted entries
-    once it holds twice as many as are left.
+    Each entry's nearest neighbours within one grid cell size are precomputed in one
+    vectorized pass (:func:`_neighbour_lists`): after an open path the nozzle stands on an
+    entry, and the next entry is usually the first unprinted one in that short list (all
+    entries nearer than it are in the list, so it is the nearest). Otherwise (after a
+    closed path, or all those printed) a live query: one numpy pass when few entries are
+    left, else the grid's cell blocks searched outward from the nozzle
+    (:meth:`_EntryGrid.nearest`); the grid is rebuilt over the unprinted entries once it
+    holds twice as many as are left.
     """
 
     def __init__(self, layer: _Layer, e0: int, e1: int) -> None:
-        from scipy.spatial import cKDTree
-
-        self.cKDTree = cKDTree
-        self.xy = layer.entry_xy[e0:e1].copy()
-        self.points = np.column_stack((self.xy.real, self.xy.imag))
+        self.xy = layer.entry_xy[e0:e1]
         # One flag byte per entry, read per item in Python and as a numpy view.
         self.printed_bytes = bytearray(self.xy.size)
         self.printed = np.frombuffer(self.printed_bytes, dtype=bool)
         self.alive = self.xy.size
-        self.tree = cKDTree(self.points)
-        self.tree_ids = np.arange(self.xy.size)
-        k = min(NEIGHBOURS, self.xy.size)
-        _, nearest = self.tree.query(self.points, k=k)
-        self.neighbours = nearest.reshape(self.xy.size, k).tolist()
+        self.ids = np.arange(self.xy.size)
+        self.grid = _EntryGrid(self.xy, self.ids)
+        self.neighbours, self.neighbour_offsets = self.grid.neighbour_lists(NEIGHBOURS)
 
     def nearest(self, at: complex, at_entry: int) -> int:
         """Index (in the group) of the unprinted entry nearest ``at`` (the position of
         entry ``at_entry`` when that is not -1)."""
         if at_entry >= 0:
             printed = self.printed_bytes
-            for candidate in self.neighbours[at_entry]:
+            for candidate in self.neighbours[self.neighbour_offsets[at_entry] : self.neighbour_offsets[at_entry + 1]]:
                 if not printed[candidate]:
                     return candidate
-        if self.tree_ids.size > 2 * self.alive or self.alive <= BRUTE_FORCE_ENTRIES:
-            self._drop_printed()
+        if self.ids.size > 2 * self.alive:
+            self.ids = self.ids[~self.printed[self.ids]]
+            if self.alive > BRUTE_FORCE_ENTRIES:
+                self.grid = _EntryGrid(self.xy, self.ids)
         if self.alive <= BRUTE_FORCE_ENTRIES:
-            return int(self.tree_ids[np.abs(self.xy[self.tree_ids] - at).argmin()])
-        size = self.tree_ids.size
-        k = min(FALLBACK_K, size)
-        while True:
-            _, found = self.tree.query((at.real, at.imag), k=k)
-            ids = self.tree_ids[np.atleast_1d(found)]
-            alive = np.flatnonzero(~self.printed[ids])
-            if alive.size:
-                return int(ids[alive[0]])
-            k = min(8 * k, size)
+            ids = self.ids[~self.printed[self.ids]]
+            self.ids = ids
+            return int(ids[np.abs(self.xy[ids] - at).argmin()])
+        return self.grid.nearest(at, self.printed)
 
     def remove(self, lo: int, hi: int) -> None:
         """Entries ``lo..hi-1`` (one path's) are printed."""
         self.printed_bytes[lo:hi] = b"\x01" * (hi - lo)
         self.alive -= hi - lo
 
-    def _drop_printed(self) -> None:
-        """Keep only unprinted entries in the tree (and in ``tree_ids``)."""
-        if self.tree_ids.size == self.alive:
-            return
-        self.tree_ids = self.tree_ids[~self.printed[self.tree_ids]]
-        if self.alive > BRUTE_FORCE_ENTRIES:
-            self.tree = self.cKDTree(self.points[self.tree_ids])
+
+class _EntryGrid:
+    """Entries (complex ``x + iy``, mm) bucketed in square cells, with an empty border.
+
+    The cell size gives about :data:`ENTRIES_PER_CELL` entries per occupied cell
+    (:func:`_cell_size`). Entries are sorted by cell (row-major), so a row of adjacent cells
+    is one contiguous run of ``ids``: ``ids[start[c]:start[c + 1]]`` are the entries of
+    cell ``c``.
+    """
+
+    def __init__(self, xy: np.ndarray, ids: np.ndarray) -> None:
+        pts = xy[ids]
+        x, y = pts.real, pts.imag
+        self.x0, self.y0 = float(x.min()), float(y.min())
+        self.cell = _cell_size(x - self.x0, y - self.y0)
+        self.nx = int((float(x.max()) - self.x0) / self.cell) + 1
+        self.ny = int((float(y.max()) - self.y0) / self.cell) + 1
+        self.stride = self.nx + 2
+        column = np.minimum(((x - self.x0) / self.cell).astype(np.int64), self.nx - 1) + 1
+        row = np.minimum(((y - self.y0) / self.cell).astype(np.int64), self.ny - 1) + 1
+        self.cell_of = row * self.stride + column
+        by_cell = np.argsort(self.cell_of, kind="stable")
+        self.xy = xy
+        self.ids = ids[by_cell]
+        self.start = np.zeros(self.stride * (self.ny + 2) + 1, dtype=np.int64)
+        np.cumsum(np.bincount(self.cell_of, minlength=self.start.size - 1), out=self.start[1:])
+
+    def neighbour_lists(self, k: int) -> tuple[list[int], list[int]]:
+        """Up to ``k`` nearest other entries of each entry within one cell size, nearest
+        first, as a flat list of entry indices and per-entry offsets into it (entry ``e``'s
+        list is ``flat[offsets[e]:offsets[e + 1]]``). The 3x3 cells around an entry hold
+        every entry within one cell size, so each list is the exact start of the entry's
+        sorted neighbours. Entries whose 3x3 cells hold more than :data:`NEIGHBOUR_CANDIDATES`
+        entries get an empty list (the live query serves them). Only for a grid of all the
+        entries (``ids`` = ``0..n-1``)."""
+        n = self.ids.size
+        block = self.cell_of[:, None] + np.array([-self.stride - 1, -1, self.stride - 1])
+        lo, hi = self.start[block], self.start[block + 3]
+        lengths = hi - lo
+        lengths[lengths.sum(axis=1) > NEIGHBOUR_CANDIDATES] = 0
+        lengths, lo = lengths.ravel(), lo.ravel()
+        run_start = np.cumsum(lengths) - lengths
+        total = int(lengths.sum())
+        query = np.repeat(np.arange(n).repeat(3), lengths)
+        candidate = self.ids[np.arange(total) + np.repeat(lo - run_start, lengths)]
+        distance = np.abs(self.xy[candidate] - self.xy[query])
+        keep = (distance <= self.cell) & (candidate != query)
+        query, candidate, distance = query[keep], candidate[keep], distance[keep]
+        # Sort by entry, then distance: distance / cell is in [0, 1].
+        by = np.argsort(query + distance / self.cell * 0.5, kind="stable")
+        query, candidate = query[by], candidate[by]
+        first = np.searchsorted(query, np.arange(n + 1))
+        rank = np.arange(query.size) - first[query]
+        keep = rank < k
+        offsets = np.searchsorted(query[keep], np.arange(n + 1))
+        return candidate[keep].tolist(), offsets.tolist()
+
+    def nearest(self, at: complex, printed: np.ndarray) -> int:
+        """The unprinted entry nearest ``at``: blocks of cells around ``at``'s cell, twice
+        as wide each time, until the nearest unprinted entry found is nearer than any
+        entry outside the block can be."""
+        column = int(np.floor((at.real - self.x0) / self.cell))
+        row = int(np.floor((at.imag - self.y0) / self.cell))
+        # Start with a block that reaches the grid.
+        reach = max(1, -column, column - self.nx + 1, -row, row - self.ny + 1)
+        while True:
+            c0, c1 = max(column - reach, 0), min(column + reach, self.nx - 1)
+            r0, r1 = max(row - reach, 0), min(row + reach, self.ny - 1)
+            rows = (np.arange(r0, r1 + 1) + 1) * self.stride
+            lo, hi = self.start[rows + c0 + 1], self.start[rows + c1 + 2]
+            lengths = hi - lo
+            run_start = np.cumsum(lengths) - lengths
+            ids = self.ids[np.arange(int(lengths.sum())) + np.repeat(lo - run_start, lengths)]
+            ids = ids[~printed[ids]]
+            whole = c0 == 0 and r0 == 0 and c1 == self.nx - 1 and r1 == self.ny - 1
+            if ids.size:
+                distance = np.abs(self.xy[ids] - at)
+                best = int(distance.argmin())
+                # Distance from ``at`` to the block's sides that have cells beyond them.
+                x, y = at.real - self.x0, at.imag - self.y0
+                safe = min(
+                    x - c0 * self.cell if c0 > 0 else np.inf,
+                    (c1 + 1) * self.cell - x if c1 < self.nx - 1 else np.inf,
+                    y - r0 * self.cell if r0 > 0 else np.inf,
+                    (r1 + 1) * self.cell - y if r1 < self.ny - 1 else np.inf,
+                )
+                if whole or distance[best] <= safe:
+                    return int(ids[best])
+            reach *= 2
+
+
+def _cell_size(x: np.ndarray, y: np.ndarray) -> float:
+    """Grid cell size (mm) giving about :data:`ENTRIES_PER_CELL` points per occupied cell,
+    for points ``x, y >= 0`` (mm) that may fill an area or lie along curves (infill ends on
+    color boundaries).
+
+    Starts from the size that would suit points spread evenly over their bounding box,
+    then twice scales it by ``(target / occupancy) ** (1 / d)``, where ``d`` (1 for curves,
+    2 for areas) is estimated from how occupancy changed with the previous step. Never
+    smaller than gives :data:`MAX_CELLS_PER_ENTRY` cells per point over the box.
+    """
+    n = x.size
+    width, height = float(x.max()), float(y.max())
+    smallest = np.sqrt(width * height / (MAX_CELLS_PER_ENTRY * n))
+    cell = max(np.sqrt(width * height * ENTRIES_PER_CELL / n), max(width, height) * ENTRIES_PER_CELL / n)
+    if cell <= 0.0:
+        return 1.0
+    dimension = 2.0
+    previous = None
+    for _ in range(2):
+        columns = int(width / cell) + 1
+        occupied = np.unique((y / cell).astype(np.int64) * columns + (x / cell).astype(np.int64)).size
+        occupancy = n / occupied
+        if previous is not None and previous[0] != cell and previous[1] != occupancy:
+            dimension = float(np.clip(np.log(previous[1] / occupancy) / np.log(previous[0] / cell), 1.0, 2.0))
+        previous = (cell, occupancy)
+        cell = max(cell * (ENTRIES_PER_CELL / occupancy) ** (1.0 / dimension), smallest)
+    return cell
 
 
 def _moved(path: Path, points: np.ndarray) -> Path:
