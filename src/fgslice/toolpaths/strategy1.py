@@ -404,14 +404,7 @@ def _pieces(paths, lines: _Lines, cpid, carc, clab, first_label, min_length: flo
     cut_paths = np.flatnonzero(has_cuts)
     end[last] = np.where(closed[cut_paths], start[bounds[:-1][has_cuts]] + total[cut_paths], total[cut_paths])
 
-    short = np.bincount(rpid[end - start < min_length], minlength=n_paths) > 0
-    keep = ~short[rpid]
-    rows = [(rpid[keep], start[keep], end[keep], lab[keep])]
-    for i in np.flatnonzero(short).tolist():
-        a, b = bounds[i], bounds[i + 1]
-        merged = _merge_short(start[a:b].tolist(), end[a:b].tolist(), lab[a:b].tolist(), min_length, bool(closed[i]), float(total[i]))
-        rows.append((np.full(len(merged[2]), i), *(np.array(c) for c in merged)))
-    rpid, start, end, lab = (np.concatenate(c) for c in zip(*rows))
+    rpid, start, end, lab = _merge_windows(rpid, start, end, lab, bounds, min_length, closed, total)
     # a path left in one piece (no cuts, or all merged into one) keeps its points
     count = np.bincount(rpid, minlength=n_paths)
     whole_label = first_label.copy()
@@ -432,6 +425,42 @@ def _pieces(paths, lines: _Lines, cpid, carc, clab, first_label, min_length: flo
         else:
             out.append(Path(xy[bounds[r] : bounds[r + 1]], p.role, labels[r], p.width, p.height, False, p.group))
     return out
+
+
+def _merge_windows(rpid, start, end, lab, bounds, min_length: float, closed, total):
+    """Pieces (path, start, end, label; sorted by path and along it, ``bounds`` the
+    path offsets) after merging those shorter than ``min_length`` (:func:`_merge_short`).
+
+    A closed path with a short piece is merged whole. On open paths only windows are:
+    runs of short pieces with their neighbours, chained through a single long piece
+    between two runs. A long piece keeps its color and its outer neighbour has another
+    color, so windows do not interact and give the same pieces as merging the whole
+    path (a long serpentine with a few short pieces costs a few short merges).
+    """
+    is_short = end - start < min_length
+    if not is_short.any():
+        return rpid, start, end, lab
+    same_path = rpid[1:] == rpid[:-1]
+    open_piece = ~closed[rpid]
+    touched = is_short.copy()
+    touched[1:] |= is_short[:-1] & same_path
+    touched[:-1] |= is_short[1:] & same_path
+    touched &= open_piece
+    # windows: consecutive touched pieces of a path, broken between two long pieces
+    joined = same_path & touched[1:] & touched[:-1] & (is_short[1:] | is_short[:-1])
+    first = np.flatnonzero(touched & ~np.r_[False, joined])
+    last = np.flatnonzero(touched & ~np.r_[joined, False])
+    whole = np.flatnonzero(np.bincount(rpid[is_short & ~open_piece], minlength=len(closed)) > 0)
+    keep = ~touched & ~np.isin(rpid, whole)
+    rows = [(rpid[keep], start[keep], end[keep], lab[keep])]
+    spans = [(a, b + 1, False, 0.0) for a, b in zip(first.tolist(), last.tolist())]
+    spans += [(bounds[i], bounds[i + 1], True, float(total[i])) for i in whole.tolist()]
+    for a, b, is_closed, length in spans:
+        merged = _merge_short(start[a:b].tolist(), end[a:b].tolist(), lab[a:b].tolist(), min_length, is_closed, length)
+        rows.append((np.full(len(merged[2]), rpid[a]), *(np.array(c) for c in merged)))
+    rpid, start, end, lab = (np.concatenate(c) for c in zip(*rows))
+    order = np.lexsort((start, rpid))
+    return rpid[order], start[order], end[order], lab[order]
 
 
 def _piece_points(lines: _Lines, rpid, s0, s1) -> tuple[np.ndarray, np.ndarray]:
