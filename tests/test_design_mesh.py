@@ -25,6 +25,14 @@ def _reference_area(mesh: trimesh.Trimesh, z: float) -> float:
     return float(shapely.area(faces[odd]).sum())
 
 
+def _geometry(mesh: trimesh.Trimesh) -> MeshGeometry:
+    return MeshGeometry(mesh.vertices, mesh.faces)
+
+
+def _as_trimesh(geometry: MeshGeometry) -> trimesh.Trimesh:
+    return trimesh.Trimesh(geometry._vertices, geometry._faces, process=False)
+
+
 def _save(mesh: trimesh.Trimesh, path: Path, **kwargs) -> Path:
     mesh.export(path, **kwargs)
     return path
@@ -58,7 +66,7 @@ def test_scene_bodies_are_concatenated(tmp_path):
 
 def test_cylinder_section_is_exact_polygon_and_matches_trimesh(tmp_path):
     mesh = trimesh.creation.cylinder(radius=7.0, height=10.0, sections=64)
-    geometry = MeshGeometry(mesh)
+    geometry = _geometry(mesh)
     for z in (-4.9, 0.0, 3.3):
         section = geometry.section(z)
         exact = 0.5 * 64 * 49.0 * np.sin(2 * np.pi / 64)
@@ -69,7 +77,7 @@ def test_cylinder_section_is_exact_polygon_and_matches_trimesh(tmp_path):
 
 def test_annulus_keeps_hole_with_cw_orientation():
     mesh = trimesh.creation.annulus(r_min=3.0, r_max=6.0, height=4.0, sections=48)
-    section = MeshGeometry(mesh).section(0.25)
+    section = _geometry(mesh).section(0.25)
     (polygon,) = section.geoms
     assert len(polygon.interiors) == 1
     assert not shapely.is_ccw(polygon.interiors[0])
@@ -78,7 +86,7 @@ def test_annulus_keeps_hole_with_cw_orientation():
 
 
 def test_vertex_on_plane_and_planes_outside(box_mesh):
-    geometry = MeshGeometry(box_mesh)
+    geometry = _geometry(box_mesh)
     sections = geometry.sections([15.0, -15.0, 0.0, 40.0, -40.0])
     # vertices on the plane count as above it: the top cut is the full face, the bottom one empty
     assert sections[0].area == pytest.approx(200.0)
@@ -92,7 +100,7 @@ def test_open_mesh_sections_are_closed(box_mesh):
     mesh = box_mesh.copy()
     side = np.flatnonzero(mesh.face_normals[:, 0] > 0.5)
     mesh.update_faces(np.setdiff1d(np.arange(len(mesh.faces)), side))
-    geometry = MeshGeometry(mesh)
+    geometry = _geometry(mesh)
     assert not geometry.watertight
     section = geometry.section(1.0)
     assert section.is_valid
@@ -104,15 +112,15 @@ def test_sdf_of_box_and_of_open_box(box_mesh):
     y = np.array([0.0, 0.0, 0.0, 13.0, -9.5])
     z = np.array([0.0, 0.0, 0.0, 0.0, 14.0])
     expected = np.array([-5.0, -1.0, 2.0, 3.0, -0.5])
-    np.testing.assert_allclose(MeshGeometry(box_mesh).sdf(x, y, z), expected, atol=1e-12)
+    np.testing.assert_allclose(_geometry(box_mesh).sdf(x, y, z), expected, atol=1e-12)
     mesh = box_mesh.copy()
     mesh.update_faces(np.arange(1, len(mesh.faces)))
-    np.testing.assert_allclose(MeshGeometry(mesh).sdf(x, y, z), expected, atol=1e-12)
+    np.testing.assert_allclose(_geometry(mesh).sdf(x, y, z), expected, atol=1e-12)
 
 
 def test_sdf_broadcasts(box_mesh):
     grid = np.linspace(-8, 8, 5)
-    values = MeshGeometry(box_mesh).sdf(grid[:, None], grid[None, :], 0.0)
+    values = _geometry(box_mesh).sdf(grid[:, None], grid[None, :], 0.0)
     assert values.shape == (5, 5)
     assert values[2, 2] == pytest.approx(-5.0)
 
@@ -121,7 +129,7 @@ def test_sdf_broadcasts(box_mesh):
     "name, content, fragment",
     [
         ("missing.stl", None, "not found"),
-        ("junk.stl", b"\x00\x01garbage" * 7, "no triangles"),
+        ("junk.stl", b"\x00\x01garbage" * 7, "too short"),
         ("junk.3mf", b"PK\x03\x04 not a zip", "cannot read"),
         ("empty.obj", b"", "no triangles"),
         ("model.ply", b"ply", "unsupported"),
@@ -154,16 +162,16 @@ def test_benchy_sections_match_trimesh(benchy_path):
     assert all(s.is_valid and isinstance(s, shapely.MultiPolygon) for s in sections)
     assert all(not s.is_empty for s in sections)
     for k in (3, 60, 130, 200):
-        reference = _reference_area(geometry._mesh, zs[k])
+        reference = _reference_area(_as_trimesh(geometry), zs[k])
         assert sections[k].area == pytest.approx(reference, rel=5e-3)
         assert geometry.section(zs[k]).equals_exact(sections[k], 0.0)
     volume = sum(s.area for s in sections) * 0.2
-    assert volume == pytest.approx(abs(geometry._mesh.volume), rel=0.01)
+    assert volume == pytest.approx(abs(_as_trimesh(geometry).volume), rel=0.01)
 
 
 def _shells(*meshes: trimesh.Trimesh) -> MeshGeometry:
     """One mesh holding all the given shells as they are (no boolean), like a multi-body STL."""
-    return MeshGeometry(trimesh.util.concatenate(list(meshes)))
+    return _geometry(trimesh.util.concatenate(list(meshes)))
 
 
 def _inverted(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
@@ -198,7 +206,7 @@ def test_overlapping_shells_slice_as_their_union(a, b):
 def test_shell_inside_a_shell_fills_and_inverted_shell_is_solid():
     outer, inner = _box((10, 10, 10)), _box((4, 4, 4))
     assert _shells(outer, inner).section(0.5).area == pytest.approx(100.0)
-    assert MeshGeometry(_inverted(outer)).section(0.5).area == pytest.approx(100.0)
+    assert _geometry(_inverted(outer)).section(0.5).area == pytest.approx(100.0)
 
 
 @pytest.mark.parametrize("kind", ["box", "sphere"])
@@ -208,7 +216,7 @@ def test_inward_facing_inner_shell_stays_a_hole(kind):
     else:
         outer, inner = trimesh.creation.icosphere(3, radius=5.0), trimesh.creation.icosphere(3, radius=3.0)
     mesh = trimesh.util.concatenate([outer, _inverted(inner)])
-    geometry = MeshGeometry(mesh)
+    geometry = _geometry(mesh)
     for z in (-1.3, 0.2, 1.7):
         section = geometry.section(z)
         (polygon,) = section.geoms
@@ -220,7 +228,7 @@ def test_inward_facing_inner_shell_stays_a_hole(kind):
 def test_tube_crossed_by_a_bar_keeps_the_rest_of_its_hole():
     tube = trimesh.creation.annulus(r_min=3.0, r_max=6.0, height=4.0, sections=48)
     section = _shells(tube, _box((14, 2, 2))).section(0.25)
-    expected = shapely.union(MeshGeometry(tube).section(0.25), shapely.box(-7, -1, 7, 1))
+    expected = shapely.union(_geometry(tube).section(0.25), shapely.box(-7, -1, 7, 1))
     assert section.is_valid
     assert shapely.symmetric_difference(section, expected).area < 1e-9
     assert sum(len(p.interiors) for p in section.geoms) == 2
@@ -239,10 +247,10 @@ def test_inner_shell_with_a_missing_face_falls_back_to_even_odd():
 def test_bodies_touching_along_shared_edges_slice_as_their_union(tmp_path, centres):
     # merged vertices make the shared edges non-manifold (four faces); the face order must not matter
     path = _save(trimesh.util.concatenate([_box((10, 10, 2), c) for c in centres]), tmp_path / "touching.stl")
-    merged = load_mesh(path)._mesh
+    merged = _as_trimesh(load_mesh(path))
     rng = np.random.default_rng(7)
     for _ in range(20):
         shuffled = trimesh.Trimesh(merged.vertices, merged.faces[rng.permutation(len(merged.faces))], process=False)
-        section = MeshGeometry(shuffled).section(0.3)
+        section = _geometry(shuffled).section(0.3)
         assert section.is_valid
         assert section.area == pytest.approx(100.0 * len(centres), rel=1e-12)

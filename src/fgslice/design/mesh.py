@@ -37,13 +37,13 @@ agree; a hole smaller than the part fools at most the rays that pass through it.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from functools import cached_property
 from pathlib import Path
 
 import numpy as np
 import shapely
-import trimesh
 from fgslice.errors import MeshError
 
 SUPPORTED_FORMATS = {".stl": "stl", ".3mf": "3mf", ".obj": "obj"}
@@ -57,13 +57,16 @@ _MAX_PAIRS_PER_BATCH = 2_000_000
 _SDF_CHUNK = 8192
 """Query points processed at once by :meth:`MeshGeometry.sdf` (bounds memory)."""
 
+_REEXPORT_HINT = "the file may be truncated or not a mesh; re-export it from your CAD program"
+
 
 def load_mesh(path: str | Path, *, gap_tolerance: float = 0.25) -> MeshGeometry:
     """Read an STL (binary or ASCII), 3MF or OBJ file into a :class:`MeshGeometry`.
 
-    All bodies of a 3MF or OBJ scene are concatenated into one mesh; coincident
-    vertices are merged. ``gap_tolerance`` (mm) is the largest hole gap a section
-    bridges (see the module notes).
+    STL files are read directly with numpy; 3MF and OBJ files through trimesh (imported
+    only for them). All bodies of a 3MF or OBJ scene (all solids of an ASCII STL) are
+    concatenated into one mesh; coincident vertices are merged. ``gap_tolerance`` (mm)
+    is the largest hole gap a section bridges (see the module notes).
 
     Raises:
         MeshError: the file is missing, of an unsupported type, unreadable or corrupt,
@@ -79,33 +82,119 @@ def load_mesh(path: str | Path, *, gap_tolerance: float = 0.25) -> MeshGeometry:
         )
     if not path.is_file():
         raise MeshError("mesh file not found", file=path, hint="check the path (relative paths start at the design file's folder)")
+    if file_type == "stl":
+        corners = _read_stl(path)
+        vertices, faces = corners.reshape(-1, 3), np.arange(corners.size // 3).reshape(-1, 3)
+        element = "triangle"
+    else:
+        vertices, faces = _read_with_trimesh(path, file_type)
+        element = "vertex"
+    if len(faces) == 0:
+        raise MeshError(
+            "the mesh holds no triangles",
+            file=path,
+            hint="export the bodies as a triangle mesh (not only points, lines or an empty scene)",
+        )
+    finite = np.isfinite(vertices).all(axis=1)
+    if not finite.all():
+        bad = int(np.flatnonzero(~finite)[0]) // (3 if element == "triangle" else 1)
+        raise MeshError(
+            f"{element} {bad} has a non-finite coordinate (NaN or infinity)",
+            file=path,
+            hint="repair the mesh (e.g. with your CAD program's mesh repair) and export it again",
+        )
+    vertices, inverse = _merge_vertices(vertices)
+    return MeshGeometry(vertices, inverse[faces], path=path, gap_tolerance=gap_tolerance)
+
+
+def _read_with_trimesh(path: Path, file_type: str) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices (V, 3) mm and faces (F, 3) of a 3MF or OBJ file, all bodies concatenated."""
+    import trimesh
+
     try:
         with path.open("rb") as stream:
             loaded = trimesh.load(stream, file_type=file_type, process=False)
             if isinstance(loaded, trimesh.Scene):
                 loaded = loaded.to_mesh()
     except Exception as exc:  # trimesh raises many unrelated types for corrupt input
+        raise MeshError(f"cannot read the {file_type.upper()} mesh: {exc}", file=path, hint=_REEXPORT_HINT) from exc
+    if not isinstance(loaded, trimesh.Trimesh):
+        return np.empty((0, 3)), np.empty((0, 3), dtype=np.int64)
+    return np.asarray(loaded.vertices, dtype=float), np.asarray(loaded.faces, dtype=np.int64)
+
+
+_STL_HEADER_BYTES = 84
+"""A binary STL starts with an 80-byte header and the uint32 triangle count."""
+
+_STL_RECORD = np.dtype([("normal", "<f4", 3), ("corners", "<f4", (3, 3)), ("attribute", "<u2")])
+"""One 50-byte binary STL triangle record (little endian)."""
+
+_NUMBER = rb"[-+]?(?:(?:\d+\.?\d*|\.\d+)(?:e[-+]?\d+)?|nan|inf(?:inity)?)"
+
+
+def _facet_body(number: bytes) -> bytes:
+    """Regex of an ASCII STL facet after its ``facet`` keyword, vertex coordinates matched by ``number``."""
+    vertex = rb"\s+vertex\s+" + number + rb"\s+" + number + rb"\s+" + number
+    return rb"\s+normal\s+\S+\s+\S+\s+\S+\s+outer\s+loop" + vertex * 3 + rb"\s+endloop\s+endfacet(?!\S)"
+
+
+_FACET_KEYWORD = rb"(?<!\S)facet(?!\S)"
+_ASCII_FACET = _FACET_KEYWORD + _facet_body(b"(" + _NUMBER + b")")
+_ASCII_BAD_FACET = _FACET_KEYWORD + b"(?!" + _facet_body(_NUMBER) + b")"
+"""Patterns of a well-formed facet (capturing its nine coordinates) and of a malformed one;
+compiled (and cached) by :mod:`re` on first use, so binary STL files never pay for them."""
+
+
+def _read_stl(path: Path) -> np.ndarray:
+    """The (F, 3, 3) triangle corners (mm, float64) of a binary or ASCII STL file.
+
+    A file is binary when its size is exactly the header plus 50 bytes per announced
+    triangle, ASCII when it starts with ``solid`` and holds text; anything else is an
+    error naming what does not fit.
+    """
+    data = path.read_bytes()
+    count = int.from_bytes(data[80:84], "little") if len(data) >= _STL_HEADER_BYTES else None
+    if count is not None and len(data) == _STL_HEADER_BYTES + count * _STL_RECORD.itemsize:
+        records = np.frombuffer(data, dtype=_STL_RECORD, offset=_STL_HEADER_BYTES)
+        return records["corners"].astype(np.float64)
+    if data.lstrip()[:5].lower() == b"solid" and b"\0" not in data[:1024]:
+        return _read_ascii_stl(data.lower(), path)
+    if count is None:
         raise MeshError(
-            f"cannot read the {file_type.upper()} mesh: {exc}",
+            f"the file is too short to be an STL ({len(data)} bytes; a binary STL has at least {_STL_HEADER_BYTES})",
             file=path,
-            hint="the file may be truncated or not a mesh; re-export it from your CAD program",
-        ) from exc
-    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
-        raise MeshError(
-            "the mesh holds no triangles",
-            file=path,
-            hint="export the bodies as a triangle mesh (not only points, lines or an empty scene)",
+            hint=_REEXPORT_HINT,
         )
-    vertices = np.asarray(loaded.vertices, dtype=float)
-    if not np.isfinite(vertices).all():
-        bad = int(np.flatnonzero(~np.isfinite(vertices).all(axis=1))[0])
+    expected = _STL_HEADER_BYTES + count * _STL_RECORD.itemsize
+    raise MeshError(
+        f"not a valid STL: a binary STL announcing {count} triangles has {expected} bytes, this file has {len(data)}"
+        + (" (truncated?)" if len(data) < expected else ""),
+        file=path,
+        hint=_REEXPORT_HINT,
+    )
+
+
+def _read_ascii_stl(text: bytes, path: Path) -> np.ndarray:
+    """The (F, 3, 3) corners of an ASCII STL given as lower-cased bytes (the facets of every solid).
+
+    Each facet must read ``facet normal nx ny nz``, ``outer loop``, three ``vertex x y z``,
+    ``endloop``, ``endfacet`` (any whitespace between words); the first one that does
+    not is reported with its line and column.
+    """
+    numbers = re.findall(_ASCII_FACET, text)
+    if len(numbers) != len(re.findall(_FACET_KEYWORD, text)):
+        bad = re.search(_ASCII_BAD_FACET, text).start()
         raise MeshError(
-            f"vertex {bad} has a non-finite coordinate (NaN or infinity)",
+            "malformed ASCII STL facet: expected 'facet normal nx ny nz', 'outer loop', "
+            "three 'vertex x y z' lines, 'endloop', 'endfacet'",
             file=path,
-            hint="repair the mesh (e.g. with your CAD program's mesh repair) and export it again",
+            line=text.count(b"\n", 0, bad) + 1,
+            column=bad - text.rfind(b"\n", 0, bad),
+            hint=_REEXPORT_HINT,
         )
-    vertices, faces = _merge_vertices(vertices, np.asarray(loaded.faces, dtype=np.int64))
-    return MeshGeometry(trimesh.Trimesh(vertices, faces, process=False), path=path, gap_tolerance=gap_tolerance)
+    if text.rfind(b"endsolid") < text.rfind(b"endfacet"):
+        raise MeshError("the ASCII STL ends without 'endsolid'", file=path, line=text.count(b"\n") + 1, hint=_REEXPORT_HINT)
+    return np.array(numbers, dtype=bytes).reshape(-1, 9).astype(np.float64).reshape(-1, 3, 3)
 
 
 _MERGE_DIGITS = 8
@@ -114,27 +203,26 @@ _MERGE_DIGITS = 8
 _HASH = np.array([0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9], dtype=np.uint64)
 
 
-def _merge_vertices(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Coincident vertices merged into one of them; faces re-indexed.
+def _merge_vertices(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Coincident vertices merged: the kept vertices and, for each input row, its kept index.
 
     Rows are rounded to :data:`_MERGE_DIGITS` decimals, hashed to one 64-bit key and
-    sorted once; a hash collision between different rows (checked) falls back to
-    ``np.unique(axis=0)``.
+    sorted once; a hash collision between different rows (checked against the kept
+    rows) falls back to ``np.unique(axis=0)``.
     """
     q = np.round(vertices * 10.0**_MERGE_DIGITS).astype(np.int64)
     with np.errstate(over="ignore"):
-        key = (q.view(np.uint64) * _HASH).sum(axis=1, dtype=np.uint64)
+        key = q.view(np.uint64) @ _HASH
     order = np.argsort(key)
-    sorted_key, sorted_q = key[order], q[order]
-    same_key = sorted_key[1:] == sorted_key[:-1]
-    same_row = (sorted_q[1:] == sorted_q[:-1]).all(axis=1)
-    if np.any(same_key & ~same_row):
-        _, first, inverse = np.unique(q, axis=0, return_index=True, return_inverse=True)
-        return vertices[first], inverse.reshape(-1)[faces]
-    new = np.r_[True, ~same_key]
+    sorted_key = key[order]
+    new = np.r_[True, sorted_key[1:] != sorted_key[:-1]]
     inverse = np.empty(len(vertices), dtype=np.int64)
     inverse[order] = np.cumsum(new) - 1
-    return vertices[order[new]], inverse[faces]
+    first = order[new]
+    if not np.array_equal(np.take(np.take(q, first, axis=0), inverse, axis=0), q):
+        _, first, inverse = np.unique(q, axis=0, return_index=True, return_inverse=True)
+        inverse = inverse.reshape(-1)
+    return vertices[first], inverse
 
 
 class MeshGeometry:
@@ -145,15 +233,17 @@ class MeshGeometry:
         gap_tolerance: the largest gap (mm) between open chain ends a section bridges.
     """
 
-    def __init__(self, mesh: trimesh.Trimesh, *, path: str | Path | None = None, gap_tolerance: float = 0.25):
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray, *, path: str | Path | None = None, gap_tolerance: float = 0.25):
+        """Build from ``vertices`` (V, 3) in mm and ``faces`` (F, 3) vertex indices (wound
+        counter-clockwise seen from outside); vertices are used as given (not merged)."""
         self.path = Path(path) if path is not None else None
         self.gap_tolerance = float(gap_tolerance)
-        self._mesh = mesh
-        self._vertices, self._faces = _sorted_by_height(np.asarray(mesh.vertices, dtype=float), np.asarray(mesh.faces, dtype=np.int64))
+        self._vertices, self._faces = _sorted_by_height(np.asarray(vertices, dtype=float), np.asarray(faces, dtype=np.int64))
         self._edges, self._face_edges = _unique_edges(self._faces, len(self._vertices))
         self._face_z = self._vertices[self._faces, 2]
         self._edge_ends = self._vertices[self._edges]
-        self._slabs = _SlabIndex(self._face_z.min(axis=1), self._face_z.max(axis=1))
+        z0, z1, z2 = self._face_z.T
+        self._slabs = _SlabIndex(np.minimum(np.minimum(z0, z1), z2), np.maximum(np.maximum(z0, z1), z2))
 
     @property
     def triangle_count(self) -> int:
@@ -162,8 +252,8 @@ class MeshGeometry:
 
     @cached_property
     def watertight(self) -> bool:
-        """True when every edge is shared by exactly two consistently wound faces."""
-        return bool(self._mesh.is_watertight)
+        """True when every edge is shared by exactly two faces."""
+        return len(self._faces) > 0 and bool((np.bincount(self._face_edges.ravel(), minlength=len(self._edges)) == 2).all())
 
     def bounds(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
         """Axis-aligned bounding box ``((minx, miny, minz), (maxx, maxy, maxz))`` in mm."""
@@ -230,19 +320,24 @@ def _sorted_by_height(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarr
     rank = np.empty_like(order)
     rank[order] = np.arange(len(order))
     faces = rank[faces]
-    return vertices[order], faces[np.argsort(faces.min(axis=1), kind="stable")]
+    lowest = np.minimum(np.minimum(faces[:, 0], faces[:, 1]), faces[:, 2])
+    return vertices[order], faces[np.argsort(lowest, kind="stable")]
 
 
 def _unique_edges(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
-    """The unique edges ``(E, 2)`` (lower vertex index first) and each face's edges ``(F, 3)``.
+    """The unique edges ``(E, 2)`` (lower vertex index first, sorted) and each face's edges ``(F, 3)``.
 
     A face's edges are (v0, v1), (v1, v2), (v2, v0), in that order.
     """
-    ends = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    lo, hi = ends.min(axis=1), ends.max(axis=1)
-    keys, inverse = np.unique(lo * np.int64(n_vertices) + hi, return_inverse=True)
-    edges = np.column_stack([keys // n_vertices, keys % n_vertices])
-    return edges, inverse.reshape(-1, 3)
+    following = np.roll(faces, -1, axis=1)
+    keys = (np.minimum(faces, following) * np.int64(n_vertices) + np.maximum(faces, following)).ravel()
+    order = np.argsort(keys)
+    sorted_keys = keys[order]
+    new = np.r_[True, sorted_keys[1:] != sorted_keys[:-1]]
+    inverse = np.empty(len(keys), dtype=np.int64)
+    inverse[order] = np.cumsum(new) - 1
+    unique = sorted_keys[new]
+    return np.column_stack([unique // n_vertices, unique % n_vertices]), inverse.reshape(-1, 3)
 
 
 class _SlabIndex:
@@ -659,7 +754,9 @@ class _TriangleDistance:
 
     def __init__(self, triangles: np.ndarray):
         from scipy.spatial import cKDTree
+        from trimesh.triangles import closest_point
 
+        self._closest_point = closest_point
         centroids = triangles.mean(axis=1)
         order = np.argsort(_morton_codes(centroids), kind="stable")
         self._triangles = triangles[order]
@@ -707,7 +804,7 @@ class _TriangleDistance:
         tri = self._members[cluster[close]].ravel()
         close = _lower_bound(points[point], self._tri, tri) < best[point]
         point, tri = point[close], tri[close]
-        nearest = trimesh.triangles.closest_point(self._triangles[tri], points[point])
+        nearest = self._closest_point(self._triangles[tri], points[point])
         np.minimum.at(best, point, np.linalg.norm(nearest - points[point], axis=1))
 
 
