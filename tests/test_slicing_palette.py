@@ -149,3 +149,19 @@ def test_labels():
     assert Palette(3, 1).label(0) == "A 33.33% / B 33.33% / C 33.33%"
     with pytest.raises(SettingsError):
         Palette(2, 4).label(4)
+
+
+@pytest.mark.parametrize("size", [1, 2, 3, 7, 16, 48])
+def test_two_material_color_of_is_the_bin_of_the_first_fraction(size):
+    palette = Palette(2, size)
+    rng = np.random.default_rng(size)
+    f0 = np.concatenate([rng.uniform(-0.1, 1.1, 5000), np.arange(size + 1) / size])
+    fractions = np.stack([f0, 1 - f0], axis=-1)
+    expected = palette._by_code[
+        np.clip(np.searchsorted(palette._codes[palette._by_code], palette.cell_of(fractions) @ (palette.subdivisions ** np.arange(2))), 0, size - 1)
+    ]
+    colors = palette.color_of(fractions)
+    assert np.array_equal(colors, expected)
+    inside = (f0 >= 0) & (f0 < 1)
+    assert np.all(colors[inside] == np.floor(f0[inside] * size))
+    assert np.all(np.abs(palette.centers[colors[inside], 0] - f0[inside]) <= 0.5 / size + 1e-12)

@@ -134,6 +134,8 @@ class Palette:
         self.order = np.arange(self.size)
         self._codes = self.cells @ (m ** np.arange(k))
         self._by_code = np.argsort(self._codes)
+        #: Two materials with color c = bin c of the first fraction: color_of is one floor.
+        self._two_material_bins = k == 2 and bool(np.array_equal(self.cells[:, 0], np.arange(self.size)))
 
     def order_for_layer(self, layer_index: int) -> np.ndarray:
         """Colors in traversal order for layer ``layer_index``: reversed on odd layers."""
@@ -167,6 +169,9 @@ class Palette:
 
     def color_of(self, fractions: np.ndarray) -> np.ndarray:
         """Color index (``...``) of normalized fractions ``(..., k)``."""
+        if self._two_material_bins:
+            f0 = np.asarray(fractions, dtype=float)[..., 0]
+            return np.clip(np.floor(f0 * self.subdivisions), 0, self.subdivisions - 1).astype(np.int64)
         t = self.cell_of(fractions)
         codes = t @ (self.subdivisions ** np.arange(self.n_materials))
         pos = np.searchsorted(self._codes[self._by_code], codes)
