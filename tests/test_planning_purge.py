@@ -1,5 +1,6 @@
 """Purge towers: placement, purge length per change, a tower on every layer, statistics."""
 
+import pickle
 from types import SimpleNamespace
 
 import numpy as np
@@ -80,6 +81,27 @@ def test_each_change_purges_the_melt_volume_and_unchanged_states_purge_nothing()
     # The part's own paths are untouched and in the same order.
     for before, after in zip(plans, out):
         assert [p for p in after.paths if p.role is not Role.WIPE_TOWER] == before.paths
+
+
+def test_plans_received_as_columns_get_the_same_tower_without_building_their_paths():
+    settings = Settings(melt_volume_mm3=20.0)
+    plans = layer_plans(4)
+    tower = PurgeTower.plan(FOOTPRINT, settings, changes_per_layer=4, n_layers=4)
+    plain_stats, packed_stats = PurgeStats(), PurgeStats()
+    plain = list(insert_purges(iter(plans), tower, settings, PALETTE, plain_stats))
+    received = [pickle.loads(pickle.dumps(plan)) for plan in plans]  # as from a worker
+    packed = list(insert_purges(iter(received), tower, settings, PALETTE, packed_stats))
+    assert all(plan.packed is not None for plan in packed)  # no path was built on the way
+    assert packed_stats.extruded_mm3 == pytest.approx(plain_stats.extruded_mm3, rel=1e-12)
+    assert (packed_stats.changes, packed_stats.purge_mm3) == (plain_stats.changes, plain_stats.purge_mm3)
+    for a, b in zip(plain, packed):
+        assert len(a.steps) == len(b.steps)
+        for x, y in zip(a.steps, b.steps):
+            assert type(x) is type(y)
+            if isinstance(x, SetState):
+                assert x == y
+            else:
+                assert np.array_equal(x.points, y.points) and (x.role, x.color, x.closed) == (y.role, y.color, y.closed)
 
 
 def test_tower_is_on_the_bed_clear_of_the_part_and_printed_on_every_layer():

@@ -52,7 +52,7 @@ import numpy as np
 from fgslice.errors import SettingsError
 from fgslice.machine.dialects import PLACEHOLDER, Dialect, PaletteLike
 from fgslice.machine.thumbnails import thumbnail_block
-from fgslice.planning.plan import LayerPlan, Prepared, SetState
+from fgslice.planning.plan import EXTRA, STATE, LayerPlan, Prepared, SetState
 from fgslice.settings import Settings
 from fgslice.toolpaths.paths import Path, Role, bead_area
 
@@ -304,6 +304,70 @@ def format_duration(seconds: float) -> str:
     return " ".join(f"{v}{u}" for v, u in parts + [(secs, "s")])
 
 
+@dataclass
+class _LayerPaths:
+    """What the writer needs of a layer's steps, as arrays (from a plan's packed columns
+    without making paths, else from its steps).
+
+    Attributes:
+        n: number of paths.
+        codes, widths, colors: ``(n,)`` role code (:data:`ROLES`), bead width (mm) and
+            design color of each path.
+        states: the colors of the layer's SetStates in order; ``state_before`` the path
+            each one precedes (``n``: after the last path).
+        rows: ``(n,)`` each path's row of ``data`` (prepared bodies), -1 for none.
+        data: the prepared :class:`PathBodies` (None if none).
+        missing: the paths without a row, in order (every path when ``data`` is None).
+    """
+
+    n: int
+    codes: np.ndarray
+    widths: np.ndarray
+    colors: np.ndarray
+    states: np.ndarray
+    state_before: np.ndarray
+    rows: np.ndarray
+    data: PathBodies | None
+    missing: list[Path]
+
+    @classmethod
+    def of(cls, plan: LayerPlan) -> "_LayerPaths":
+        packed = plan.packed
+        if packed is not None and packed.data is not None and len(packed.roles) and (packed.rows >= 0).all():
+            is_path = packed.kind != STATE
+            kind, ref = packed.kind[is_path], packed.ref[is_path]
+            extra = np.flatnonzero(kind == EXTRA)
+            column = np.where(kind == EXTRA, 0, ref)
+            codes = packed.roles[column].astype(np.int64)
+            widths, colors = packed.widths[column], packed.colors[column].astype(np.int64)
+            rows = packed.rows[column].astype(np.int64)
+            missing = [packed.extras[r] for r in ref[extra].tolist()]
+            if missing:
+                roles, extra_widths, extra_colors = zip(*map(attrgetter("role", "width", "color"), missing))
+                codes[extra] = [ROLE_CODE[r] for r in roles]
+                widths[extra], colors[extra], rows[extra] = extra_widths, extra_colors, -1
+            before = np.cumsum(is_path) - is_path
+            return cls(len(ref), codes, widths, colors, packed.ref[~is_path], before[~is_path], rows, packed.data,
+                       missing)
+        steps = plan.steps
+        is_path = np.fromiter((step.__class__ is not SetState for step in steps), dtype=bool, count=len(steps))
+        paths = [step for step in steps if step.__class__ is not SetState]
+        n = len(paths)
+        roles, widths, colors = zip(*map(attrgetter("role", "width", "color"), paths)) if paths else ((), (), ())
+        before = np.cumsum(is_path) - is_path
+        states = np.array([step.color for step in steps if step.__class__ is SetState], dtype=np.int64)
+        prepared = plan.prepared
+        rows = np.full(n, -1, dtype=np.int64)
+        missing = paths
+        if prepared is not None and paths:
+            get = prepared.rows.get
+            rows[:] = [get(p, -1) for p in paths]
+            missing = [paths[i] for i in np.flatnonzero(rows < 0).tolist()]
+        return cls(n, np.fromiter(map(ROLE_CODE.__getitem__, roles), dtype=np.int64, count=n),
+                   np.array(widths, dtype=np.float64), np.array(colors, dtype=np.int64), states,
+                   before[~is_path], rows, prepared.data if prepared is not None and paths else None, missing)
+
+
 class GcodeWriter:
     """Writes G-code to ``out`` layer by layer and gathers statistics.
 
@@ -400,38 +464,48 @@ class GcodeWriter:
             parts.append(f"M106 S{int(round(s.fan_speed * 2.55))}\n")
             self._fan_on = True
 
-        paths: list[Path] = []
-        before: list[str] = []
-        resets: list[bool] = []
-        colors: list[int] = []
-        pending, reset = "", False
-        moves_head = self.dialect.moves_head
-        for step in plan.steps:
-            if step.__class__ is SetState:
-                change = self._set_state(step.color)
-            elif self._state is None and step.color >= 0:
-                change = self._set_state(step.color)
-            else:
-                change = ""
-            if change:
-                pending += change
-                reset = reset or moves_head
-            if step.__class__ is not SetState:
-                paths.append(step)
-                before.append(pending)
-                resets.append(reset)
-                colors.append(-1 if self._state is None else self._state)
-                pending, reset = "", False
-        if paths:
-            trailing = [pending] if pending else []
-            parts.extend(self._write_paths(paths, before, resets, colors, plan.index, trailing, plan.prepared))
+        layer = _LayerPaths.of(plan)
+        if layer.n:
+            before, resets, colors, trailing = self._state_changes_before(layer)
+            parts.extend(self._write_paths(layer, before, resets, colors, plan.index, trailing))
             pending = "".join(trailing)
+        else:
+            pending = "".join(self._set_state(c) for c in layer.states)
         if pending:
             parts.append(pending)
-            if moves_head:
+            if self.dialect.moves_head:
                 self._pos = None
         self._stats_layers += 1
         self.out.write("".join(parts))
+
+    def _state_changes_before(self, layer: "_LayerPaths") -> tuple[list[str], np.ndarray, np.ndarray, list[str]]:
+        """The state-change text due before each path, whether it moved the head, the
+        state each path is printed in (-1 for "unknown") and the text due after the last
+        path. A path of a known color printed while the state is still unknown (no
+        SetState yet in the print) sets that state first."""
+        n = layer.n
+        at = layer.state_before.tolist()  # the path each SetState precedes (n: none)
+        changes = layer.states.tolist()
+        if self._state is None:
+            known = np.flatnonzero(layer.colors >= 0)
+            if len(known) and (not at or known[0] < at[0]):
+                at.insert(0, int(known[0]))
+                changes.insert(0, int(layer.colors[known[0]]))
+        before = [""] * (n + 1)
+        resets = np.zeros(n + 1, dtype=bool)
+        state_after = []
+        start_state = -1 if self._state is None else self._state
+        moves_head = self.dialect.moves_head
+        for j, color in zip(at, changes):
+            text = self._set_state(color)
+            if text:
+                before[j] += text
+                resets[j] |= moves_head
+            state_after.append(self._state)
+        colors = np.array([start_state, *state_after], dtype=np.int64)
+        colors = colors[np.searchsorted(np.array(at, dtype=np.int64), np.arange(n), side="right")]
+        trailing = [before.pop()] if before[-1] else []
+        return before, resets[:n], colors, trailing
 
     def _set_state(self, color: int) -> str:
         """The lines of a state change to ``color``, or "" if it is the current state."""
@@ -458,26 +532,23 @@ class GcodeWriter:
         s = self.settings
         return f"G1 E{fmt(sign * s.retract_length, 5)} F{fmt(s.retract_speed * 60, 1)}\n"
 
-    def _bodies(self, paths: list[Path], prepared: Prepared | None) -> tuple[PathBodies, np.ndarray, str]:
-        """The bodies of ``paths``: the prepared ones, the others formatted now (all in
-        bulk when none is prepared; else one by one, reused by geometry from ``_made``:
-        purge lines repeat from layer to layer); returns the bodies, each path's row in them and the text the
-        rows' bounds index."""
-        rows = np.full(len(paths), -1, dtype=np.int64)
-        if prepared is not None:
-            get = prepared.rows.get
-            rows[:] = [get(p, -1) for p in paths]
-        else:
-            fresh = format_bodies(paths, self.filament_area)
-            return fresh, np.arange(len(paths)), fresh.text
-        missing = np.flatnonzero(rows < 0).tolist()
-        if not missing:
-            return prepared.data, rows, prepared.data.text
+    def _bodies(self, layer: "_LayerPaths") -> tuple[PathBodies, np.ndarray, str]:
+        """The bodies of the layer's paths: the prepared ones, the others formatted now
+        (all in bulk when none is prepared; else one by one, reused by geometry from
+        ``_made``: purge lines repeat from layer to layer); returns the bodies, each
+        path's row in them and the text the rows' bounds index."""
+        rows, data = layer.rows, layer.data
+        if data is None:
+            fresh = format_bodies(layer.missing, self.filament_area)
+            return fresh, np.arange(layer.n), fresh.text
+        missing = np.flatnonzero(rows < 0)
+        if not len(missing):
+            return data, rows, data.text
         made = self._made
         if len(made) > MADE_BODIES:
             made.clear()
-        keys = [(p.points.tobytes(), p.closed, p.width, p.height) for p in (paths[i] for i in missing)]
-        new = {k: paths[i] for k, i in zip(keys, missing) if k not in made}
+        keys = [(p.points.tobytes(), p.closed, p.width, p.height) for p in layer.missing]
+        new = {k: p for k, p in zip(keys, layer.missing) if k not in made}
         if new:
             fresh = format_bodies(list(new.values()), self.filament_area)
             cuts = fresh.bounds.tolist()
@@ -487,9 +558,9 @@ class GcodeWriter:
                 made[key] = (fresh.text[a:b], *row)
         texts, start, end, low, high, e, length = zip(*map(made.__getitem__, keys))
         sizes = np.fromiter(map(len, texts), dtype=np.int64, count=len(texts))
-        old = prepared.data
-        n_old = len(old.e)
-        rows[missing] = n_old + np.arange(len(missing))
+        old = data
+        rows = rows.copy()
+        rows[missing] = len(old.e) + np.arange(len(missing))
         joined = PathBodies(
             text="",
             bounds=np.concatenate([old.bounds, old.bounds[-1] + np.cumsum(sizes)]),
@@ -504,39 +575,37 @@ class GcodeWriter:
 
     def _write_paths(
         self,
-        paths: list[Path],
+        layer: "_LayerPaths",
         before: list[str],
-        resets: list[bool],
-        colors: list[int],
+        resets: np.ndarray,
+        colors: np.ndarray,
         layer_index: int,
         trailing: list[str],
-        prepared: Prepared | None = None,
     ) -> list[str]:
         """The text of a layer's paths: their bodies (:meth:`_bodies`), travels,
         annotations, in bulk.
 
         ``before[i]`` is the state-change text due before path ``i``; ``resets[i]`` tells
-        that it moved the head. Text due before paths that print nothing moves to the
-        next printed path (or to ``trailing``).
+        that it moved the head; ``colors[i]`` the state it is printed in. Text due before
+        paths that print nothing moves to the next printed path (or to ``trailing``).
         """
         s = self.settings
-        bodies, rows, text = self._bodies(paths, prepared)
+        bodies, rows, text = self._bodies(layer)
         is_printed = bodies.length[rows] > 0
         printed = np.flatnonzero(is_printed)
-        if len(printed) < len(paths):
-            self._skipped_paths += len(paths) - len(printed)
-            before, resets = self._carry_over(before, resets, is_printed, trailing)
+        if len(printed) < layer.n:
+            self._skipped_paths += layer.n - len(printed)
+            before, resets = self._carry_over(before, resets.tolist(), is_printed, trailing)
         if not len(printed):
             return []
         rows = rows[printed]
         cuts = zip(bodies.bounds[rows].tolist(), bodies.bounds[rows + 1].tolist())
         chunks = [text[a:b] for a, b in cuts]
-        roles_all = [paths[i].role for i in printed.tolist()]
-        widths = np.array([paths[i].width for i in printed.tolist()])
+        widths = layer.widths[printed]
         starts, last = bodies.start[rows], bodies.end[rows]
 
         n = len(printed)
-        codes = np.fromiter(map(ROLE_CODE.__getitem__, roles_all), dtype=np.int64, count=n)
+        codes = layer.codes[printed]
         feeds = self._feeds(codes, layer_index)
         prev = np.vstack([[np.nan, np.nan] if self._pos is None else [self._pos], last[:-1]])
         unknown = np.array(resets, dtype=bool)[printed] | np.isnan(prev[:, 0])
@@ -577,7 +646,7 @@ class GcodeWriter:
         filament = bodies.e[rows]
         self._e_written += float(filament.sum())
         volume = filament * self.filament_area
-        for color, v in zip(np.array(colors)[printed].tolist(), volume.tolist()):
+        for color, v in zip(colors[printed].tolist(), volume.tolist()):
             self._volume_by_color[color] = self._volume_by_color.get(color, 0.0) + v
         self._purge_mm3 += float(volume[codes == ROLE_CODE[Role.WIPE_TOWER]].sum())
         self._bbox_min = np.minimum(self._bbox_min, [*bodies.low[rows].min(axis=0), self._z])

@@ -35,7 +35,7 @@ from operator import attrgetter
 import numpy as np
 
 from fgslice.errors import SettingsError
-from fgslice.planning.plan import LayerPlan, SetState, Step
+from fgslice.planning.plan import LayerPlan, SetState, Step, polyline_lengths
 from fgslice.toolpaths.paths import Path
 
 #: Positions closer than this (mm, or s) count as the same point.
@@ -113,19 +113,6 @@ def path_lengths(paths: Sequence[Path]) -> np.ndarray:
         return np.zeros(0)
     arrays, closed = zip(*map(attrgetter("points", "closed"), paths))
     return polyline_lengths(arrays, np.array(closed, dtype=bool))
-
-
-def polyline_lengths(arrays: Sequence[np.ndarray], closed: np.ndarray) -> np.ndarray:
-    """Length (mm) of each ``(N_i, 2)`` polyline of ``arrays`` (N_i >= 1), with the
-    segment from its last point back to its first where ``closed`` is True."""
-    sizes = np.fromiter(map(len, arrays), dtype=np.int64, count=len(arrays))
-    points = np.concatenate(arrays)
-    first = np.concatenate([[0], np.cumsum(sizes)[:-1]])
-    last = first + sizes - 1
-    seg = np.hypot(*np.diff(points, axis=0, append=points[-1:]).T)
-    seg[last] = 0.0
-    closing = np.where(closed, np.hypot(*(points[first] - points[last]).T), 0.0)
-    return np.add.reduceat(seg, first) + closing
 
 
 def _check_lead(value: float, key: str, unit: str) -> None:

@@ -8,13 +8,17 @@ printer is commanded is the latest :class:`SetState` before the path — the two
 only where look-ahead issues a change early.
 
 Plans cross process boundaries (per-layer workers): a plan pickles its paths as a few
-flat arrays (all points in one ``(N, 2)`` array, one row of attributes per path) rather
-than one array per path, and unpickles them as views of that array, so sending a layer
-of thousands of paths costs a handful of buffers.
+flat arrays (all points in one ``(N, 2)`` array, one row of attributes per path, each
+path's length computed by the sender) rather than one array per path. The receiver keeps
+them as :class:`PackedSteps` columns: stages that understand columns (purge towers, the
+G-code writer) work on them without making a :class:`Path` per step; the first access to
+``steps`` or ``prepared`` of such a plan builds the paths (as views of the one points
+array) and drops the columns.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from operator import attrgetter
 from typing import Any, Union
@@ -33,8 +37,28 @@ class SetState:
 
 Step = Union[SetState, Path]
 
-_ROLES = tuple(Role)
-_ROLE_CODE = {role: k for k, role in enumerate(_ROLES)}
+ROLES = tuple(Role)
+ROLE_CODE = {role: k for k, role in enumerate(ROLES)}
+
+#: :attr:`PackedSteps.kind` of a step: a path of the columns, a SetState, an extra path.
+PACKED, STATE, EXTRA = 0, 1, 2
+
+
+def polyline_lengths(arrays: Sequence[np.ndarray], closed: np.ndarray) -> np.ndarray:
+    """Length (mm) of each ``(N_i, 2)`` polyline of ``arrays`` (N_i >= 1), with the
+    segment from its last point back to its first where ``closed`` is True."""
+    sizes = np.fromiter(map(len, arrays), dtype=np.int64, count=len(arrays))
+    return _packed_lengths(np.concatenate(arrays), sizes, closed)
+
+
+def _packed_lengths(points: np.ndarray, sizes: np.ndarray, closed: np.ndarray) -> np.ndarray:
+    """:func:`polyline_lengths` of polylines stored one after another in ``points``."""
+    first = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+    last = first + sizes - 1
+    seg = np.hypot(*np.diff(points, axis=0, append=points[-1:]).T)
+    seg[last] = 0.0
+    closing = np.where(closed, np.hypot(*(points[first] - points[last]).T), 0.0)
+    return np.add.reduceat(seg, first) + closing
 
 
 @dataclass
@@ -53,6 +77,69 @@ class Prepared:
 
 
 @dataclass
+class PackedSteps:
+    """A layer's steps as columns (see the module notes). Units mm.
+
+    Attributes:
+        kind: ``(S,)`` int8 per step: :data:`PACKED` (path ``ref`` of the columns),
+            :data:`STATE` (a SetState of color ``ref``), :data:`EXTRA` (``extras[ref]``).
+        ref: ``(S,)`` int32, see ``kind``.
+        points: ``(P, 2)`` the column paths' points, one path after another.
+        offsets: ``(n + 1,)`` where each column path's points start in ``points``.
+        roles: ``(n,)`` int8 index into :data:`ROLES`.
+        colors, groups: ``(n,)`` int32.
+        widths, heights, lengths: ``(n,)`` float64 (``lengths`` with the closing segment).
+        closed: ``(n,)`` bool.
+        rows: ``(n,)`` row of ``data`` of each column path, -1 for none.
+        data: the :class:`Prepared` data the rows index (None if none).
+        extras: paths added after packing (purges, tower bases).
+    """
+
+    kind: np.ndarray
+    ref: np.ndarray
+    points: np.ndarray
+    offsets: np.ndarray
+    roles: np.ndarray
+    colors: np.ndarray
+    widths: np.ndarray
+    heights: np.ndarray
+    closed: np.ndarray
+    groups: np.ndarray
+    lengths: np.ndarray
+    rows: np.ndarray
+    data: Any = None
+    extras: list[Path] = field(default_factory=list)
+
+    def with_steps(self, kind: np.ndarray, ref: np.ndarray, extras: list[Path]) -> "PackedSteps":
+        """The same columns in another step sequence."""
+        return PackedSteps(kind, ref, self.points, self.offsets, self.roles, self.colors, self.widths,
+                           self.heights, self.closed, self.groups, self.lengths, self.rows, self.data, extras)
+
+    def build(self) -> tuple[list[Step], Prepared | None]:
+        """The steps as :class:`SetState` and :class:`Path` objects (points are views of
+        ``points``) and the :class:`Prepared` rows keyed by those paths."""
+        paths: list[Path] = []
+        cuts = self.offsets.tolist()
+        new = object.__new__
+        points = self.points
+        for a, b, role, color, width, h, shut, group in zip(
+            cuts[:-1], cuts[1:], self.roles.tolist(), self.colors.tolist(), self.widths.tolist(),
+            self.heights.tolist(), self.closed.tolist(), self.groups.tolist(),
+        ):
+            path = new(Path)
+            path.__dict__.update(points=points[a:b], role=ROLES[role], color=color, width=width, height=h,
+                                 closed=shut, group=group)
+            paths.append(path)
+        extras = self.extras
+        steps = [paths[r] if k == PACKED else SetState(r) if k == STATE else extras[r]
+                 for k, r in zip(self.kind.tolist(), self.ref.tolist())]
+        prepared = None
+        if self.data is not None:
+            prepared = Prepared({p: r for p, r in zip(paths, self.rows.tolist()) if r >= 0}, self.data)
+        return steps, prepared
+
+
+@dataclass
 class LayerPlan:
     """The ordered steps of one layer.
 
@@ -62,6 +149,8 @@ class LayerPlan:
         height: layer thickness, mm.
         steps: ordered :class:`SetState` and :class:`Path` steps.
         prepared: optional per-path data for a later stage (:class:`Prepared`).
+        packed: the steps as columns while no one has asked for ``steps``
+            (:meth:`from_packed`); None once they are built or for a plan built from steps.
     """
 
     index: int
@@ -69,6 +158,23 @@ class LayerPlan:
     height: float
     steps: list[Step] = field(default_factory=list)
     prepared: Prepared | None = None
+    packed: PackedSteps | None = field(default=None, repr=False, compare=False)
+
+    @classmethod
+    def from_packed(cls, index: int, z: float, height: float, packed: PackedSteps) -> "LayerPlan":
+        """A plan held as columns; ``steps`` and ``prepared`` are built on first access."""
+        plan = object.__new__(cls)
+        plan.__dict__.update(index=index, z=z, height=height, packed=packed)
+        return plan
+
+    def __getattr__(self, name: str) -> Any:
+        """Build ``steps`` and ``prepared`` of a packed plan when first asked for."""
+        packed = self.__dict__.get("packed")
+        if name not in ("steps", "prepared") or packed is None:
+            raise AttributeError(name)
+        self.steps, self.prepared = packed.build()
+        self.packed = None
+        return self.__dict__[name]
 
     @property
     def paths(self) -> list[Path]:
@@ -77,54 +183,53 @@ class LayerPlan:
 
     def __reduce__(self):
         """Pickle the paths as flat arrays (see the module notes)."""
+        if self.packed is not None:
+            return (_unpack, (self.index, self.z, self.height, self.packed))
         steps = self.steps
-        kinds = {s.__class__ for s in steps}
-        if not kinds <= {Path, SetState}:
+        if not {s.__class__ for s in steps} <= {Path, SetState}:
             return (LayerPlan, (self.index, self.z, self.height, steps, self.prepared))
-        is_path = np.fromiter((s.__class__ is Path for s in steps), dtype=bool, count=len(steps))
-        paths = [s for s in steps if s.__class__ is Path]
-        states = np.array([s.color for s in steps if s.__class__ is SetState], dtype=np.int64)
-        columns = None
-        if paths:
-            points, roles, colors, widths, heights, closed, groups = zip(
-                *map(attrgetter("points", "role", "color", "width", "height", "closed", "group"), paths)
-            )
-            columns = (
-                np.concatenate(points).astype(np.float64, copy=False),
-                np.fromiter(map(len, points), dtype=np.int64, count=len(paths)),
-                np.fromiter(map(_ROLE_CODE.__getitem__, roles), dtype=np.int8, count=len(paths)),
-                np.array(colors, dtype=np.int64),
-                np.array(widths, dtype=np.float64),
-                np.array(heights, dtype=np.float64),
-                np.array(closed, dtype=bool),
-                np.array(groups, dtype=np.int64),
-            )
-        prepared = None
-        if self.prepared is not None:
-            get = self.prepared.rows.get
-            prepared = (np.array([get(p, -1) for p in paths], dtype=np.int64), self.prepared.data)
-        return (_unpack, (self.index, self.z, self.height, is_path, states, columns, prepared))
+        return (_unpack, (self.index, self.z, self.height, pack_steps(steps, self.prepared)))
 
 
-def _unpack(index, z, height, is_path, states, columns, prepared) -> LayerPlan:
-    """The plan :meth:`LayerPlan.__reduce__` packed: paths rebuilt as views of one array."""
-    paths: list[Path] = []
-    if columns is not None:
-        points, sizes, roles, colors, widths, heights, closed, groups = columns
-        cuts = np.cumsum(sizes).tolist()
-        new = object.__new__
-        for a, b, role, color, width, h, shut, group in zip(
-            [0, *cuts[:-1]], cuts, roles.tolist(), colors.tolist(), widths.tolist(), heights.tolist(),
-            closed.tolist(), groups.tolist(),
-        ):
-            path = new(Path)
-            path.__dict__.update(points=points[a:b], role=_ROLES[role], color=color, width=width, height=h,
-                                 closed=shut, group=group)
-            paths.append(path)
-    path_iter, state_iter = iter(paths), iter(states.tolist())
-    steps = [next(path_iter) if kind else SetState(next(state_iter)) for kind in is_path.tolist()]
-    plan = LayerPlan(index, z, height, steps)
+def pack_steps(steps: list[Step], prepared: Prepared | None) -> PackedSteps:
+    """The columns of ``steps`` (SetState and Path only), path lengths computed here."""
+    is_path = np.fromiter((s.__class__ is Path for s in steps), dtype=bool, count=len(steps))
+    paths = [s for s in steps if s.__class__ is Path]
+    n = len(paths)
+    kind = np.where(is_path, PACKED, STATE).astype(np.int8)
+    ref = np.zeros(len(steps), dtype=np.int32)
+    ref[is_path] = np.arange(n)
+    ref[~is_path] = [s.color for s in steps if s.__class__ is SetState]
+    if paths:
+        points, roles, colors, widths, heights, closed, groups = zip(
+            *map(attrgetter("points", "role", "color", "width", "height", "closed", "group"), paths)
+        )
+        sizes = np.fromiter(map(len, points), dtype=np.int64, count=n)
+        points = np.concatenate(points).astype(np.float64, copy=False)
+        closed = np.array(closed, dtype=bool)
+        columns = (
+            points,
+            np.concatenate([[0], np.cumsum(sizes)]).astype(np.int32),
+            np.fromiter(map(ROLE_CODE.__getitem__, roles), dtype=np.int8, count=n),
+            np.array(colors, dtype=np.int32),
+            np.array(widths, dtype=np.float64),
+            np.array(heights, dtype=np.float64),
+            closed,
+            np.array(groups, dtype=np.int32),
+            _packed_lengths(points, sizes, closed),
+        )
+    else:
+        columns = (np.zeros((0, 2)), np.zeros(1, dtype=np.int32), np.zeros(0, dtype=np.int8),
+                   np.zeros(0, dtype=np.int32), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool),
+                   np.zeros(0, dtype=np.int32), np.zeros(0))
+    rows, data = np.full(n, -1, dtype=np.int32), None
     if prepared is not None:
-        rows, data = prepared
-        plan.prepared = Prepared({p: r for p, r in zip(paths, rows.tolist()) if r >= 0}, data)
-    return plan
+        get = prepared.rows.get
+        rows = np.array([get(p, -1) for p in paths], dtype=np.int32)
+        data = prepared.data
+    return PackedSteps(kind, ref, *columns, rows, data)
+
+
+def _unpack(index: int, z: float, height: float, packed: PackedSteps) -> LayerPlan:
+    """The plan :meth:`LayerPlan.__reduce__` packed, kept as columns."""
+    return LayerPlan.from_packed(index, z, height, packed)

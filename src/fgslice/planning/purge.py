@@ -31,8 +31,7 @@ import numpy as np
 import shapely
 
 from fgslice.errors import SettingsError, SliceError
-from fgslice.planning.lookahead import polyline_lengths
-from fgslice.planning.plan import LayerPlan, SetState, Step
+from fgslice.planning.plan import EXTRA, PACKED, STATE, LayerPlan, PackedSteps, SetState, Step, polyline_lengths
 from fgslice.settings import Settings
 from fgslice.toolpaths.paths import Path, Role, bead_area
 
@@ -251,7 +250,7 @@ def insert_purges(
     stats = stats if stats is not None else PurgeStats()
     if not settings.purge or tower is None:
         for plan in plans:
-            stats.extruded_mm3 += float(_volumes(plan.paths).sum())
+            stats.extruded_mm3 += _plan_volume(plan)
             yield plan
         return
     centers = np.asarray(palette.centers, dtype=np.float64)
@@ -259,35 +258,78 @@ def insert_purges(
     for plan in plans:
         if plan.index >= tower.n_layers:
             raise ValueError(f"layer {plan.index} is above the {tower.n_layers} layers the tower was planned for")
-        marks = [i for i, step in enumerate(plan.steps) if isinstance(step, SetState)]
-        changes = _count_changes([plan.steps[i].color for i in marks], state)
+        packed = plan.packed
+        if packed is not None:
+            marks = np.flatnonzero(packed.kind == STATE).tolist()
+            colors = packed.ref[marks].tolist()
+            n_steps = len(packed.kind)
+        else:
+            marks = [i for i, step in enumerate(plan.steps) if isinstance(step, SetState)]
+            colors = [plan.steps[i].color for i in marks]
+            n_steps = len(plan.steps)
+        changes = _count_changes(colors, state)
         if changes > tower.changes_per_layer:
             raise ValueError(
                 f"layer {plan.index} has {changes} state changes; the tower was sized for {tower.changes_per_layer}"
             )
         base = tower.base_paths(changes, CURRENT_STATE if state is None else state, plan.height)
-        runs = [plan.steps[a + 1 : b] for a, b in zip([-1] + marks, marks + [len(plan.steps)])]
-        steps: list[Step] = list(runs[0]) if marks else [*runs[0], *base]
+        # the new order: ranges (a, b) of the plan's steps and lists of tower paths
+        ends = marks + [n_steps]
+        pieces: list[tuple[int, int] | list[Path]] = [(0, ends[0])]
+        if not marks:
+            pieces.append(base)
         purges: list[Path] = []
-        for k, i in enumerate(marks):
-            change = plan.steps[i]
+        for k, (i, color) in enumerate(zip(marks, colors)):
             if k == 0:
-                steps.extend(base)
-            steps.append(change)
-            if change.color != state:
+                pieces.append(base)
+            pieces.append((i, i + 1))
+            if color != state:
                 length = purge_length(settings.melt_volume_mm3, tower.line_width, plan.height)
                 if settings.purge_scale_by_change and state is not None:
-                    length *= float(np.max(np.abs(centers[change.color] - centers[state])))
-                purges.append(tower.purge_path(len(purges), length, change.color, plan.height))
-                steps.append(purges[-1])
-                state = change.color
-            steps.extend(runs[k + 1])
-        volumes = _volumes(purges + base + [p for run in runs for p in run])
+                    length *= float(np.max(np.abs(centers[color] - centers[state])))
+                purges.append(tower.purge_path(len(purges), length, color, plan.height))
+                pieces.append(purges[-1:])
+                state = color
+            pieces.append((i + 1, ends[k + 1]))
+        volumes = _volumes(purges + base)
         stats.purge_mm3 += float(volumes[: len(purges)].sum())
         stats.changes += len(purges)
-        stats.tower_base_mm3 += float(volumes[len(purges) : len(purges) + len(base)].sum())
-        stats.extruded_mm3 += float(volumes.sum())
-        yield LayerPlan(index=plan.index, z=plan.z, height=plan.height, steps=steps, prepared=plan.prepared)
+        stats.tower_base_mm3 += float(volumes[len(purges) :].sum())
+        stats.extruded_mm3 += float(volumes.sum()) + _plan_volume(plan)
+        if packed is not None:
+            yield LayerPlan.from_packed(plan.index, plan.z, plan.height, _packed_with(packed, pieces))
+        else:
+            steps: list[Step] = []
+            for piece in pieces:
+                steps.extend(plan.steps[piece[0] : piece[1]] if isinstance(piece, tuple) else piece)
+            yield LayerPlan(index=plan.index, z=plan.z, height=plan.height, steps=steps, prepared=plan.prepared)
+
+
+def _packed_with(packed: PackedSteps, pieces: list[tuple[int, int] | list[Path]]) -> PackedSteps:
+    """``packed`` with its steps reordered as ``pieces``: ranges ``(a, b)`` of its steps and
+    lists of new paths (added to its extras)."""
+    extras = list(packed.extras)
+    kinds, refs = [], []
+    for piece in pieces:
+        if isinstance(piece, tuple):
+            kinds.append(packed.kind[piece[0] : piece[1]])
+            refs.append(packed.ref[piece[0] : piece[1]])
+        else:
+            kinds.append(np.full(len(piece), EXTRA, dtype=np.int8))
+            refs.append(np.arange(len(extras), len(extras) + len(piece), dtype=np.int32))
+            extras.extend(piece)
+    return packed.with_steps(np.concatenate(kinds), np.concatenate(refs), extras)
+
+
+def _plan_volume(plan: LayerPlan) -> float:
+    """Everything ``plan`` extrudes by the capsule model, mm^3 (from the packed lengths when
+    the plan is packed)."""
+    packed = plan.packed
+    if packed is None:
+        return float(_volumes(plan.paths).sum())
+    ref = packed.ref[packed.kind == PACKED]
+    area = bead_area(packed.widths[ref], packed.heights[ref])
+    return float(np.dot(packed.lengths[ref], area)) + float(_volumes(packed.extras).sum())
 
 
 def _count_changes(colors: list[int], state: int | None) -> int:
