@@ -123,3 +123,16 @@ def test_verify_of_a_file_followed_while_it_is_written(tmp_path):
     read = list(follow_file(path, writer(), min_block=16))
     assert b"".join(read) == text and len(read) > 3
     assert verify_gcode_blocks(read, SETTINGS) == whole
+
+
+def test_numbers_short_and_long_read_as_float_does():
+    rng = np.random.default_rng(3)
+    texts = [f"{v:.{d}f}" for v, d in zip(rng.uniform(-2e6, 2e6, 3000) / 10.0 ** rng.integers(0, 7, 3000),
+                                           rng.integers(0, 9, 3000))]
+    texts = [t for t in texts if len(t) <= 16 and sum(c.isdigit() for c in t) <= 15]  # the reader's limits
+    texts += ["0", "-0", "+5", ".5", "-.25", "7.", "1234567", "12345678", "-1234567.1234567", "0000000000001.5"]
+    body = "".join(f"G1 X{t} Y1\n" for t in texts) + "G1 X1.2.3 Y1\nG1 X12345678.1.1 Y1\nG1 X-- Y1\n"
+    program = read_gcode(("M83\n" + body).encode())
+    n = len(texts)
+    assert program.end[:n, 0].tolist() == [float(t) for t in texts]
+    assert [f.line for f in program.faults] == [n + 2, n + 3, n + 4]

@@ -457,6 +457,45 @@ def _parse_chunk(padded: np.ndarray, words: np.ndarray, begin: np.ndarray) -> tu
     return np.where(c0 == 45, -values, values), ~bad
 
 
+_LIVE_WORD = np.array([(1 << 8 * k) - 1 for k in range(9)], dtype=np.uint64)
+
+
+def _parse_short(padded: np.ndarray, words: np.ndarray, begin: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_parse_chunk` for numbers of at most 7 characters (all coordinates and
+    extrusions a slicer writes), from one uint64 word each: values, validity, and which
+    numbers run longer (their values here are meaningless; the caller reads them again)."""
+    word = words[begin]
+    chars = word.view(np.uint8).reshape(-1, 8)
+    digits = chars - np.uint8(48)
+    is_digit = digits < 10
+    is_point = chars == 46
+    c0 = chars[:, 0]
+    signed = (c0 == 45) | (c0 == 43)
+    foreign = ~(is_digit | is_point)
+    foreign[:, 0] &= ~signed
+    length = _first_byte_word(foreign.view(np.uint64)[:, 0])
+    longer = length == 8
+    length[longer] = 7
+    points = is_point.view(np.uint64)[:, 0]
+    point = np.minimum(_first_byte_word(points), length)
+    second = _first_byte_word(points & (points - np.uint64(1)))
+    n_digits = length - (point < length) - signed
+    bad = ~_END_TABLE[padded[begin + length]] | (second < length) | (n_digits <= 0)
+    digits *= is_digit
+    number = _eight_digits(digits.view(np.uint64)[:, 0] & _LIVE_WORD[length]).view(np.int64)
+    scale = _POW10_INT[8 - point]
+    whole = number // scale
+    fraction = (number - whole * scale) // _POW10_INT[8 - length]
+    decimals = np.maximum(length - 1 - point, 0)
+    values = (whole * _POW10_INT[decimals] + fraction) / _POW10[decimals]
+    return np.where(c0 == 45, -values, values), ~bad, longer
+
+
+def _first_byte_word(v: np.ndarray) -> np.ndarray:
+    """Index of the first nonzero byte of each uint64 word (8 if none)."""
+    return (np.bitwise_count((v & (~v + np.uint64(1))) - np.uint64(1)) >> 3).astype(np.int64)
+
+
 def _parse_numbers(padded: np.ndarray, begin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Values of the plain decimal numbers starting at ``padded[begin]``.
 
@@ -474,7 +513,11 @@ def _parse_numbers(padded: np.ndarray, begin: np.ndarray) -> tuple[np.ndarray, n
     values = np.empty(len(begin))
     valid = np.empty(len(begin), dtype=bool)
     for s in range(0, len(begin), _CHUNK):
-        values[s : s + _CHUNK], valid[s : s + _CHUNK] = _parse_chunk(padded, words, begin[s : s + _CHUNK])
+        part = begin[s : s + _CHUNK]
+        value, ok, longer = _parse_short(padded, words, part)
+        if longer.any():
+            value[longer], ok[longer] = _parse_chunk(padded, words, part[longer])
+        values[s : s + _CHUNK], valid[s : s + _CHUNK] = value, ok
     return values, valid
 
 
