@@ -52,7 +52,7 @@ CLOSED_ENTRY_SPACING_MM = 1.0
 #: smaller ones by one numpy pass over the group's entries per path.
 GRID_MIN_PATHS = 128
 #: Grid tours: entries per grid cell, on average over the entries' bounding box.
-ENTRIES_PER_CELL = 4
+ENTRIES_PER_CELL = 2
 #: Grid tours: the grid has at most this many cells per entry (bounds its memory).
 MAX_CELLS_PER_ENTRY = 16
 #: Grid tours: neighbours precomputed per entry (at most; those within one cell size).
@@ -427,11 +427,11 @@ class _EntryGrid:
         np.cumsum(np.bincount(self.cell_of, minlength=self.start.size - 1), out=self.start[1:])
 
     def neighbour_lists(self, k: int) -> tuple[list[int], list[int]]:
-        """Up to ``k`` nearest other entries of each entry within one cell size, nearest
-        first, as a flat list of entry indices and per-entry offsets into it (entry ``e``'s
-        list is ``flat[offsets[e]:offsets[e + 1]]``). The 3x3 cells around an entry hold
-        every entry within one cell size, so each list is the exact start of the entry's
-        sorted neighbours. Entries whose 3x3 cells hold more than :data:`NEIGHBOUR_CANDIDATES`
+        """Up to ``k`` nearest other entries of each entry among those its 3x3 cells are
+        sure to hold, nearest first, as a flat list of entry indices and per-entry offsets
+        into it (entry ``e``'s list is ``flat[offsets[e]:offsets[e + 1]]``). Those cells
+        hold every entry within one cell size plus the entry's distance to its own cell's
+        sides, so each list is the exact start of the entry's sorted neighbours. Entries whose 3x3 cells hold more than :data:`NEIGHBOUR_CANDIDATES`
         entries get an empty list (the live query serves them). Only for a grid of all the
         entries (``ids`` = ``0..n-1``)."""
         n = self.ids.size
@@ -445,10 +445,15 @@ class _EntryGrid:
         query = np.repeat(np.arange(n).repeat(3), lengths)
         candidate = self.ids[np.arange(total) + np.repeat(lo - run_start, lengths)]
         distance = np.abs(self.xy[candidate] - self.xy[query])
-        keep = (distance <= self.cell) & (candidate != query)
+        # The 3x3 cells hold every entry within one cell size plus the entry's distance
+        # to its own cell's sides.
+        u = (self.xy.real - self.x0) / self.cell - (self.cell_of % self.stride - 1)
+        v = (self.xy.imag - self.y0) / self.cell - (self.cell_of // self.stride - 1)
+        reach = self.cell * (1.0 + np.minimum(np.minimum(u, 1.0 - u), np.minimum(v, 1.0 - v)))
+        keep = (distance <= reach[query]) & (candidate != query)
         query, candidate, distance = query[keep], candidate[keep], distance[keep]
-        # Sort by entry, then distance: distance / cell is in [0, 1].
-        by = np.argsort(query + distance / self.cell * 0.5, kind="stable")
+        # Sort by entry, then distance: distance / (4 cell) is in [0, 0.375].
+        by = np.argsort(query + distance / (4.0 * self.cell), kind="stable")
         query, candidate = query[by], candidate[by]
         first = np.searchsorted(query, np.arange(n + 1))
         rank = np.arange(query.size) - first[query]
