@@ -222,7 +222,7 @@ def _merge_vertices(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if not np.array_equal(np.take(np.take(q, first, axis=0), inverse, axis=0), q):
         _, first, inverse = np.unique(q, axis=0, return_index=True, return_inverse=True)
         inverse = inverse.reshape(-1)
-    return vertices[first], inverse
+    return np.take(vertices, first, axis=0), inverse
 
 
 class MeshGeometry:
@@ -240,8 +240,8 @@ class MeshGeometry:
         self.gap_tolerance = float(gap_tolerance)
         self._vertices, self._faces = _sorted_by_height(np.asarray(vertices, dtype=float), np.asarray(faces, dtype=np.int64))
         self._edges, self._face_edges = _unique_edges(self._faces, len(self._vertices))
-        self._face_z = self._vertices[self._faces, 2]
-        self._edge_ends = self._vertices[self._edges]
+        self._face_z = np.ascontiguousarray(self._vertices[:, 2])[self._faces]
+        self._edge_ends = np.take(self._vertices, self._edges, axis=0)
         z0, z1, z2 = self._face_z.T
         self._slabs = _SlabIndex(np.minimum(np.minimum(z0, z1), z2), np.maximum(np.maximum(z0, z1), z2))
 
@@ -321,7 +321,7 @@ def _sorted_by_height(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarr
     rank[order] = np.arange(len(order))
     faces = rank[faces]
     lowest = np.minimum(np.minimum(faces[:, 0], faces[:, 1]), faces[:, 2])
-    return vertices[order], faces[np.argsort(lowest, kind="stable")]
+    return np.take(vertices, order, axis=0), np.take(faces, np.argsort(lowest, kind="stable"), axis=0)
 
 
 def _unique_edges(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
@@ -364,7 +364,7 @@ class _SlabIndex:
                 break
             self._step *= 2
         slab = np.repeat(lo, counts) + _ranks_within_runs(counts)
-        order = np.argsort(slab, kind="stable")
+        order = np.argsort(slab.astype(np.min_scalar_type(int(slab.max()))), kind="stable")  # radix sort when small
         self._faces = np.repeat(np.arange(len(zmin)), counts)[order]
         self._start = np.searchsorted(slab[order], np.arange(int(slab.max()) + 2))
 
