@@ -576,3 +576,10 @@ def test_d_without_a_value_is_a_design_error():
         expr(X, Y, Z)
     assert (info.value.line, info.value.column) == (4, 5)
     np.testing.assert_allclose(expr(X, Y, Z, d=Y), X + 2 * Y)
+
+
+@pytest.mark.parametrize("digit", ["\U0001fbf0", "\u0661", "\uff15"])
+def test_non_ascii_digits_are_not_numbers(digit):
+    with pytest.raises(DesignSyntaxError) as err:
+        compile_expression(f"x+{digit}")
+    assert "unexpected character" in err.value.message

@@ -251,3 +251,9 @@ def test_deep_nesting_is_refused_before_parsing_with_its_location():
         parse_design(text, file="deep.vcad")
     assert time.perf_counter() - started < 1.0
     assert info.value.line == 1 and info.value.column == 8 * 200 + 8
+
+
+@pytest.mark.parametrize("digit", ["\U0001fbf0", "\u0661", "\uff15"])
+def test_non_ascii_digits_are_not_numbers_in_designs(digit):
+    with pytest.raises(DesignSyntaxError):
+        parse_design(f"sphere({digit});")
