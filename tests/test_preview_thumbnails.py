@@ -81,3 +81,34 @@ def test_trilinear_matches_scipy_map_coordinates_with_edges_clamped():
     index = rng.uniform(-3.0, 11.0, size=(3, 2000))
     expected = map_coordinates(volume, index, order=1, mode="nearest")
     assert np.allclose(_trilinear(volume, index), expected, atol=1e-12)
+
+
+@pytest.mark.parametrize("step", [(1.0, 1.0, 1.0), (1.0, 1.3, 0.7)])
+def test_chamfer_distance_bounds_the_euclidean_distance(step):
+    from scipy.ndimage import distance_transform_edt
+
+    from fgslice.preview.thumbnails import _chamfer_distance
+
+    step = np.asarray(step)
+    mask = np.random.default_rng(5).random((40, 30, 25)) < 0.003
+    reach = 10
+    chamfer = _chamfer_distance(mask, step, reach)
+    exact = distance_transform_edt(~mask, sampling=step)
+    assert np.all(chamfer[mask] == 0)
+    # never below the true distance (capped at the reach), never more than 25 % above it
+    assert np.all(chamfer >= np.minimum(exact, reach * step.min()) - 1e-9)
+    assert np.all(chamfer <= 1.25 * exact + 1e-9)
+
+
+def test_thumbnail_from_sections_matches_the_exact_signed_distance_render():
+    from fgslice.preview.thumbnails import _Scene, render_image
+
+    holed = api.design(api.fgrade(["x/40 + 0.5", "0.5 - x/40"], ["blue", "yellow"],
+                                  api.difference(api.rectprism(40, 20, 12), api.cylinder(6, 20))))
+    exact = render_image(holed, 220, 124)
+    scene = _Scene(holed)
+    scene._exact = False
+    from_sections = render_image(holed, 220, 124, scene)
+    a, b = exact[..., 3] > 0.5, from_sections[..., 3] > 0.5
+    assert a.sum() > 5000
+    assert (a == b).mean() > 0.97
