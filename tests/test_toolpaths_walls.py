@@ -6,7 +6,7 @@ import shapely
 
 from fgslice.toolpaths.paths import Role
 from fgslice.toolpaths.simplify import simplify_polygons
-from fgslice.toolpaths.walls import OUTLINE_TOLERANCE, bead_spacing, make_walls
+from fgslice.toolpaths.walls import OUTLINE_TOLERANCE, bead_spacing, make_walls, offset, offset_polygons
 
 W, H = 0.4, 0.2
 
@@ -109,3 +109,20 @@ def test_loops_are_the_opened_erosions(shape):
     expected = shapely.union_all(shapely.boundary(opened))
     got = shapely.union_all([shapely.LinearRing(p.points) for p in walls.paths])
     assert shapely.hausdorff_distance(got, expected) < 1e-6
+
+
+def test_offset_polygons_equal_geos_offsets():
+    """Vertex-by-vertex erosions are GEOS's mitre erosions; events go to GEOS."""
+    smooth = shapely.Point(0, 0).buffer(10, quad_segs=32).difference(shapely.Point(2, 1).buffer(3, quad_segs=16))
+    short_edge = shapely.Polygon([(0, 0), (20, 0), (20, 10), (10.025, 14), (9.975, 14), (0, 10)])  # the 0.05 mm edge collapses
+    dumbbell = shapely.union_all([shapely.box(0, 0, 10, 10), shapely.box(10, 4.85, 20, 5.15), shapely.box(20, 0, 30, 10)])
+    sliver = shapely.box(0, 0, 20, 0.3)
+    notch = shapely.Polygon([(0, 0), (10, 0), (1, 3), (10, 6), (0, 6)])  # reflex corner sharper than the mitre limit
+    polygons = np.array([smooth, short_edge, dumbbell, sliver, notch], dtype=object)
+    for d in (-0.2, -0.5):
+        got, exact = offset_polygons(polygons, d)
+        want = offset(polygons, d)
+        assert exact[:2].all() and not exact[2:].any()
+        assert np.all(shapely.area(shapely.symmetric_difference(got, want)) < 1e-8)
+        assert np.all(shapely.is_valid(got))
+        assert shapely.get_num_coordinates(got[1]) == shapely.get_num_coordinates(short_edge) - 1

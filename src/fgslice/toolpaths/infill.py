@@ -24,7 +24,15 @@ import shapely
 
 from fgslice.toolpaths.paths import Path, Role
 from fgslice.toolpaths.simplify import simplify_polygons
-from fgslice.toolpaths.walls import OUTLINE_TOLERANCE, bead_spacing, offset, opening, ring_groups, split_rings
+from fgslice.toolpaths.walls import (
+    OUTLINE_TOLERANCE,
+    bead_spacing,
+    offset,
+    offset_polygons,
+    opening,
+    ring_groups,
+    split_rings,
+)
 
 MAX_LINK_SPACINGS = 3.0
 """Longest link between two neighbouring lines, in line spacings."""
@@ -439,14 +447,17 @@ def dense_levels(regions, first: float, spacing: float, width: float, height: fl
     ``max_levels`` reached, the rest is filled otherwise: the last loops' territory ends
     at their part eroded by ``s / 2``, where the other fill starts. Parts whose
     perimeter is shorter than two bead widths are dropped. ``eroded``, when given, is
-    ``regions`` already eroded by ``first`` (an offset the caller shares); what is left
-    for the other fill is returned as ``Loops.rest``.
+    ``(polygons, region)``: the polygons of ``regions`` eroded by ``first`` (an offset
+    the caller shares) and the region index of each. What is left for the other fill is
+    returned as ``Loops.rest``.
     """
     regions = np.atleast_1d(np.asarray(regions, dtype=object))
     trim = height * (1 - np.pi / 4)
-    eroded = offset(regions, -first) if eroded is None else eroded
-    parts, owner = shapely.get_parts(eroded, return_index=True)
-    parts, owner = _printable(parts, owner, width)
+    if eroded is None:
+        parts, owner = shapely.get_parts(regions, return_index=True)
+        eroded = (offset_polygons(parts, -first)[0], owner)
+    parts, src = shapely.get_parts(eroded[0], return_index=True)
+    parts, owner = _printable(parts, np.asarray(eroded[1])[src], width)
     geoms, owners, levels, widths = [], [], [], []
     rest, rest_owner = np.empty(0, dtype=object), np.empty(0, dtype=np.int64)
     level = 0
@@ -503,7 +514,8 @@ def uncovered_area(regions, width: float, eroded=None) -> float:
 
     That is each region minus its opening by ``w / 2`` (erode by half a bead, dilate
     back): what no bead of width ``w`` fits in. ``eroded``, when given, is ``regions``
-    already eroded by ``w / 2``; otherwise ``regions`` are first simplified to
+    already eroded by ``w / 2`` (``regions`` may then be separate polygons: their
+    openings do not overlap); otherwise ``regions`` are first simplified to
     :data:`~fgslice.toolpaths.walls.OUTLINE_TOLERANCE`, as walls are.
     """
     regions = np.atleast_1d(np.asarray(regions, dtype=object))

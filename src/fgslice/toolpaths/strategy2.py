@@ -29,7 +29,7 @@ from fgslice.slicing.layers import LayerRegions
 from fgslice.toolpaths.infill import dense_levels, solid_fill, uncovered_area
 from fgslice.toolpaths.paths import LayerPaths, Role
 from fgslice.toolpaths.simplify import simplify_paths, simplify_polygons
-from fgslice.toolpaths.walls import OUTLINE_TOLERANCE, bead_spacing, offset
+from fgslice.toolpaths.walls import OUTLINE_TOLERANCE, bead_spacing, offset_polygons
 
 
 SURFACE_TOLERANCE = 0.05
@@ -46,13 +46,15 @@ def layer_paths(regions: LayerRegions, settings: Settings) -> LayerPaths:
     if len(faces) == 0:
         return out
     levels = None if settings.fill_pattern == "concentric" else 1
-    eroded = offset(faces, -w / 2)
-    loops = dense_levels(faces, w / 2, s, w, h, max_levels=levels, eroded=eroded)
+    parts, owner = shapely.get_parts(faces, return_index=True)
+    eroded, exact = offset_polygons(parts, -w / 2)
+    loops = dense_levels(faces, w / 2, s, w, h, max_levels=levels, eroded=(eroded, owner))
     out.paths = simplify_paths(loops.paths(_roles(loops, regions.outline, w), loops.region, h), settings.gcode_resolution)
     if settings.fill_pattern == "rectilinear":
         angle = settings.infill_angle + 90.0 * (regions.index % 2)
         out.paths += solid_fill(loops.rest, angle, w, h, Role.SOLID_INFILL, loops.rest_region)
-    out.uncovered_mm2 = uncovered_area(faces, w, eroded=eroded)
+    # a polygon offset vertex by vertex comes back whole when dilated: nothing uncovered
+    out.uncovered_mm2 = uncovered_area(parts[~exact], w, eroded=eroded[~exact])
     return out
 
 

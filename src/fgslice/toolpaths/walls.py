@@ -45,6 +45,125 @@ def offset(geoms, distance) -> np.ndarray:
     return shapely.buffer(geoms, distance, join_style="mitre", mitre_limit=MITRE_LIMIT)
 
 
+def offset_polygons(polygons, distance: float) -> tuple[np.ndarray, np.ndarray]:
+    """Offset every Polygon of an array inward by ``-distance`` (mm, ``distance < 0``),
+    mitre joins.
+
+    Where nothing happens to a polygon's topology the mitre offset is each vertex moved
+    along its corner's bisector, ``v = p + d (o_a + o_b) / (1 + o_a . o_b)`` with
+    ``o_a``, ``o_b`` the outward unit normals of the corner's edges; that is done in
+    numpy for all rings at once (GEOS spends ~1.5 us per vertex on the same result).
+    A polygon keeps this result when every corner's mitre stays within
+    :data:`MITRE_LIMIT`, every edge keeps its direction (none collapses), every ring its
+    orientation, and the result is a valid polygon (no two parts of its boundary cross,
+    so no part splits, merges or vanishes); the others go through :func:`offset`.
+
+    Returns:
+        ``(result, exact)``: one geometry per input (a Polygon where ``exact``, else
+        GEOS's result, possibly a MultiPolygon or empty); ``exact`` marks the polygons
+        offset vertex by vertex, whose offset by ``-distance`` gives the input back.
+    """
+    if not distance < 0:
+        raise ValueError(f"offset_polygons erodes (distance < 0), got {distance}")
+    polygons = np.atleast_1d(np.asarray(polygons, dtype=object))
+    simple = (shapely.get_type_id(polygons) == shapely.GeometryType.POLYGON) & ~shapely.is_empty(polygons)
+    out = np.empty(len(polygons), dtype=object)
+    exact = np.zeros(len(polygons), dtype=bool)
+    todo = np.flatnonzero(simple)
+    if len(todo):
+        moved, good = _mitre_offset(polygons[todo], distance)
+        exact[todo] = good
+        out[todo[good]] = moved[good]
+    rest = np.flatnonzero(~exact)
+    if len(rest):
+        out[rest] = offset(polygons[rest], distance)
+    return out, exact
+
+
+def _mitre_offset(polygons: np.ndarray, distance: float) -> tuple[np.ndarray, np.ndarray]:
+    """Vertex-by-vertex mitre offsets of non-empty Polygons, and per polygon whether it
+    is the true offset (see :func:`offset_polygons`).
+
+    An edge that the offset reverses between two edges that keep their direction
+    collapses: its two vertices become the meeting point of its neighbours' offset lines
+    (GEOS gives the same corner after removing the reversed edge's loop).
+    """
+    rings, ring_poly = shapely.get_rings(polygons, return_index=True)
+    coords, ring = shapely.get_coordinates(rings, return_index=True)
+    sizes = np.bincount(ring, minlength=len(rings)) - 1
+    opened = np.ones(len(coords), dtype=bool)
+    opened[np.cumsum(sizes + 1) - 1] = False
+    p, ring = coords[opened], ring[opened]
+    first = np.cumsum(sizes) - sizes
+    nxt = np.arange(1, len(p) + 1)
+    nxt[first + sizes - 1] = first
+    prv = np.empty_like(nxt)
+    prv[nxt] = np.arange(len(p))
+    edge = p[nxt] - p
+    length = np.sqrt(np.einsum("ij,ij->i", edge, edge))
+    area = np.bincount(ring, p[:, 0] * p[nxt, 1] - p[nxt, 0] * p[:, 1], minlength=len(rings))
+    hole = np.r_[False, ring_poly[1:] == ring_poly[:-1]]
+    side = (np.where(hole, -1.0, 1.0) * np.sign(area))[ring]  # +1: interior left of the edges
+    with np.errstate(divide="ignore", invalid="ignore"):
+        normal = np.column_stack([edge[:, 1], -edge[:, 0]]) * (side / length)[:, None]
+        level = np.einsum("ij,ij->i", normal, p) + distance  # offset line k: normal_k . q = level_k
+        o_a = normal[prv]
+        v = p + distance * (o_a + normal) / (1.0 + np.einsum("ij,ij->i", o_a, normal))[:, None]
+        bad = _cut_mitre(o_a, normal, distance) | ~(length > 0)
+        rev = np.einsum("ij,ij->i", v[nxt] - v, edge) <= 0
+        collapse = rev & ~rev[prv] & ~rev[nxt]
+        bad |= rev & ~collapse
+        i = np.flatnonzero(collapse)
+        v[i] = _meet(normal[prv[i]], level[prv[i]], normal[nxt[i]], level[nxt[i]])
+        bad[i] |= _cut_mitre(normal[prv[i]], normal[nxt[i]], distance)
+        kept = np.ones(len(p), dtype=bool)
+        kept[nxt[i]] = False
+        # each kept vertex starts the original edge after the one it swallowed, if any
+        start_edge = np.where(collapse, nxt, np.arange(len(p)))
+        nxt_kept = np.where(kept[nxt], nxt, nxt[nxt])
+        bad |= kept & ~(np.einsum("ij,ij->i", v[nxt_kept] - v, edge[start_edge]) > 0)
+        bad |= ~np.isfinite(v).all(axis=1)
+        cross = (v[:, 0] * v[nxt_kept, 1] - v[nxt_kept, 0] * v[:, 1])[kept]
+    new_sizes = np.bincount(ring[kept], minlength=len(rings))
+    new_area = np.bincount(ring[kept], cross, minlength=len(rings))
+    bad_ring = np.bincount(ring, bad, minlength=len(rings)) > 0
+    bad_ring |= (new_sizes < 3) | (area == 0) | (np.sign(new_area) != np.sign(area))
+    good = np.bincount(ring_poly, bad_ring, minlength=len(polygons)) == 0
+    # the good polygons' rings, each closed by repeating its first vertex
+    good_ring = good[ring_poly]
+    kept &= good_ring[ring]
+    renumber = np.cumsum(good_ring) - 1
+    sizes = new_sizes[good_ring]
+    ring_at = np.r_[0, np.cumsum(sizes + 1)]
+    out = np.empty((ring_at[-1], 2))
+    out[np.arange(kept.sum()) + renumber[ring[kept]]] = v[kept]
+    out[ring_at[1:] - 1] = out[ring_at[:-1]]
+    poly_at = np.r_[0, np.cumsum(np.bincount(ring_poly, minlength=len(polygons))[good])]
+    result = np.empty(len(polygons), dtype=object)
+    result[good] = shapely.from_ragged_array(shapely.GeometryType.POLYGON, out, (ring_at, poly_at))
+    good[good] = shapely.is_valid(result[good])
+    return result, good
+
+
+def _meet(normal_a: np.ndarray, level_a: np.ndarray, normal_b: np.ndarray, level_b: np.ndarray) -> np.ndarray:
+    """Meeting points of the lines ``normal_a . q = level_a`` and ``normal_b . q = level_b``
+    (non-finite for parallel lines)."""
+    det = normal_a[:, 0] * normal_b[:, 1] - normal_a[:, 1] * normal_b[:, 0]
+    x = (level_a * normal_b[:, 1] - level_b * normal_a[:, 1]) / det
+    y = (normal_a[:, 0] * level_b - normal_b[:, 0] * level_a) / det
+    return np.column_stack([x, y])
+
+
+def _cut_mitre(normal_a: np.ndarray, normal_b: np.ndarray, distance: float) -> np.ndarray:
+    """Corners between edges of outward normals ``normal_a`` then ``normal_b`` whose mitre
+    the offset by ``distance`` would bevel: where the offset edges part (convex corners
+    when growing, reflex ones when shrinking) and the mitre is longer than
+    :data:`MITRE_LIMIT` times the distance."""
+    turn = (normal_a[:, 0] * normal_b[:, 1] - normal_a[:, 1] * normal_b[:, 0]) * np.sign(distance)
+    denom = 1.0 + np.einsum("ij,ij->i", normal_a, normal_b)
+    return (turn > 0) & ~(denom >= 2.0 / MITRE_LIMIT**2)
+
+
 def opening(geoms, radius) -> np.ndarray:
     """Morphological opening: erode by ``radius`` then dilate back (mm), vectorized.
 
