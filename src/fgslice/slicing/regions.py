@@ -1,7 +1,9 @@
 """One layer's outline and its per-color faces, in the bed frame (mm).
 
 The outline is the design's exact section at the layer's mid-plane, translated to the
-bed. Faces are computed without a polygon arrangement:
+bed and simplified to :data:`SECTION_TOLERANCE` (as the walls' outline is: mesh
+sections carry many vertices a few microns apart, which make the clipping below slow).
+Faces are computed without a polygon arrangement:
 
 1. the normalized fractions are sampled on a regular grid (``spacing`` mm, default one
    bead width: a band narrower than a bead cannot be filled anyway) covering the
@@ -43,6 +45,11 @@ from fgslice.slicing.layers import LayerRegions, Placement
 from fgslice.slicing.palette import Palette
 
 MAX_GRID_POINTS = 40_000_000
+
+SECTION_TOLERANCE = 0.005
+"""How far (mm) the outline's boundary may move when simplified (Douglas-Peucker)
+before the faces are clipped to it (3DBenchy: 1150 vertices per layer on average, 180
+after; clipping 0.68 -> 0.38 s CPU over 240 layers)."""
 
 
 def _group_polygons(parts: np.ndarray, index: np.ndarray, n: int) -> np.ndarray:
@@ -258,12 +265,14 @@ def slice_layer(
 
     The design is cut at the mid-plane ``z_top - height / 2`` (bed frame), i.e. at
     ``z_top - height / 2 - offset_z`` in its own frame; the outline is translated by the
-    placement's XY offset. ``spacing`` (mm) overrides :func:`face_spacing`.
+    placement's XY offset and simplified to :data:`SECTION_TOLERANCE`. ``spacing`` (mm)
+    overrides :func:`face_spacing`.
     """
     z_plane = z_top - height / 2
     ox, oy, oz = placement.offset
     section = design.section(z_plane - oz)
-    outline = polygonal(shapely.transform(section, lambda c: c + np.array([ox, oy])))
+    outline = shapely.transform(section, lambda c: c + np.array([ox, oy]))
+    outline = polygonal(shapely.simplify(polygonal(outline), SECTION_TOLERANCE, preserve_topology=False))
     field = BedField(design, placement)
     faces = color_faces(outline, field, palette, z_plane, spacing or face_spacing(settings))
     return LayerRegions(index=index, z=z_top, height=height, outline=outline, faces=faces)
