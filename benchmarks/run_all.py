@@ -80,17 +80,28 @@ ROWS = (
 )
 EXTRA = ("speedup", "compare")
 STAGES = (
+    ("load design", ("language.py", "load_design")),
+    ("thumbnails", ("thumbnails.py", "render_thumbnails")),
     ("outlines", ("pipeline.py", "_section_task")),
     ("regions", ("regions.py", "slice_layer")),
     ("strategy 1", ("strategy1.py", "layer_paths")),
+    ("  walls", ("walls.py", "make_walls")),
+    ("  cut", ("strategy1.py", "cut_by_color")),
     ("strategy 2", ("strategy2.py", "layer_paths")),
     ("order", ("order.py", "order_layer")),
+    ("format", ("gcode.py", "prepare_bodies")),
     ("write", ("gcode.py", "write_layer")),
     ("verify", ("verify.py", "verify_gcode")),
 )
 """Pipeline stages whose cumulative time ``--profile`` reports: (label, (file, function)).
-The streamed stages after ordering (purge, look-ahead) are left out: their cumulative time
-includes the layer generator they pull from."""
+Indented labels are parts of the stage above. The streamed stages after ordering (purge,
+look-ahead) are left out: their cumulative time includes the layer generator they pull from."""
+
+
+def stage_seconds(stats: pstats.Stats) -> dict[str, float]:
+    """Cumulative profiled seconds of each :data:`STAGES` entry present in ``stats``."""
+    cumulative = {(Path(file).name, func): v[3] for (file, _, func), v in stats.stats.items()}
+    return {label: cumulative[key] for label, key in STAGES if key in cumulative}
 
 
 @dataclass
@@ -159,9 +170,8 @@ def print_profiles(rows: list[Row], workdir: Path, top: int) -> None:
         stats = pstats.Stats(str(prof))
         total = stats.total_tt
         print(f"\n{row.name}: {total:.1f} s profiled wall (cpu {run.cpu_s:.1f} s)")
-        cumulative = {(Path(file).name, func): v[3] for (file, _, func), v in stats.stats.items()}
-        parts = [f"{label} {100 * cumulative[key] / total:.0f}%" for label, key in STAGES if key in cumulative]
-        print("  stages (cumulative share): " + ", ".join(parts))
+        parts = [f"{label.strip()} {seconds:.2f} s ({100 * seconds / total:.0f}%)" for label, seconds in stage_seconds(stats).items()]
+        print("  stages (cumulative): " + ", ".join(parts))
         entries = sorted(stats.stats.items(), key=lambda kv: kv[1][2], reverse=True)[:top]
         for (file, line, func), (_, calls, tottime, cumtime, _) in entries:
             where = f"{Path(file).name}:{line}" if line else file
