@@ -813,7 +813,7 @@ class NodeDesign(Design):
         x, y, z = (np.asarray(v, dtype=float) for v in (x, y, z))
         shape = np.broadcast_shapes(x.shape, y.shape, z.shape)
         root = self.root
-        if isinstance(root, Fgrade) and root.passes_children_context and len(shape) > 1:
+        if isinstance(root, Fgrade) and root.passes_children_context:
             return self._broadcast_fractions(root, x, y, z, shape, normalize)
         x, y, z = np.broadcast_arrays(x, y, z)
         x, y, z = x.ravel(), y.ravel(), z.ravel()
@@ -824,21 +824,28 @@ class NodeDesign(Design):
         return out.reshape(shape + (self.columns.k,))
 
     def _broadcast_fractions(self, root: Fgrade, x, y, z, shape, normalize: bool) -> np.ndarray:
-        """Fractions of a root fgrade whose children keep its fractions, on N-D broadcast inputs.
+        """Fractions of a root fgrade whose children keep its fractions (its own fractions,
+        without walking the children), on broadcast inputs.
 
         Inputs are never expanded: blocks of whole rows are evaluated, and an input constant
-        along the first axis (a grid's row of x, a single z) is passed as it is.
+        along the first axis (a grid's row of x, a single z) is passed as it is. Inputs
+        fitting one block are evaluated at once, without copying the result.
         """
-        ndim = len(shape)
+        ndim = max(len(shape), 1)
         x, y, z = (v.reshape((1,) * (ndim - v.ndim) + v.shape) for v in (x, y, z))
-        out = np.empty(shape + (self.columns.k,))
-        rows = max(1, CHUNK // max(1, math.prod(shape[1:])))
-        for start in range(0, shape[0], rows):
+        full = shape or (1,)
+        rows = max(1, CHUNK // max(1, math.prod(full[1:])))
+        if full[0] <= rows:
+            raw = root.own_fractions(x, y, z, self.columns)
+            if raw.shape[:-1] == full:
+                return (normalized(raw) if normalize else raw).reshape(shape + (self.columns.k,))
+        out = np.empty(full + (self.columns.k,))
+        for start in range(0, full[0], rows):
             block = slice(start, start + rows)
             raw = root.own_fractions(*(v[block] if v.shape[0] > 1 else v for v in (x, y, z)), self.columns)
             raw = np.broadcast_to(raw, out[block].shape)
             out[block] = normalized(raw) if normalize else raw
-        return out
+        return out.reshape(shape + (self.columns.k,))
 
     def raw_fractions(self, x, y, z) -> np.ndarray:
         """Raw (unclamped, unnormalized) fractions, shape ``broadcast + (k,)``."""
