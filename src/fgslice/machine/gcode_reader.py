@@ -224,6 +224,9 @@ def _table(chars: str) -> np.ndarray:
 
 
 _AXIS_TABLE = _table(_AXES + _AXES.lower())
+_UPPER_AXIS_TABLE = _table(_AXES)
+#: Words per move line that :func:`_simple_words` reads (``G0 X Y Z E F`` at most).
+_SIMPLE_WORDS = 5
 _END_TABLE = _table(" \t\r\n;\x00")
 _MOVE_END_TABLE = _table(" \t\r\n;")
 _COMMENT_KEYS = _table("TWLZS")
@@ -460,10 +463,17 @@ def _parse_chunk(padded: np.ndarray, words: np.ndarray, begin: np.ndarray) -> tu
 _LIVE_WORD = np.array([(1 << 8 * k) - 1 for k in range(9)], dtype=np.uint64)
 
 
-def _parse_short(padded: np.ndarray, words: np.ndarray, begin: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _parse_short(padded: np.ndarray, words: np.ndarray,
+                 begin: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`_parse_chunk` for numbers of at most 7 characters (all coordinates and
-    extrusions a slicer writes), from one uint64 word each: values, validity, and which
-    numbers run longer (their values here are meaningless; the caller reads them again)."""
+    extrusions a slicer writes), from one uint64 word each: values, validity, which
+    numbers run longer (their values here are meaningless; the caller reads them again)
+    and the characters read of each (7 for longer ones).
+
+    The point's byte is shifted out of the word, leaving the digits (the sign as a
+    leading 0) left-aligned; their 8-digit integer is ``mantissa * 10**(8 - digits)``,
+    so one division by ``10**(8 - point)`` (both exact in float64) gives the correctly
+    rounded value."""
     word = words[begin]
     chars = word.view(np.uint8).reshape(-1, 8)
     digits = chars - np.uint8(48)
@@ -479,16 +489,14 @@ def _parse_short(padded: np.ndarray, words: np.ndarray, begin: np.ndarray) -> tu
     points = is_point.view(np.uint64)[:, 0]
     point = np.minimum(_first_byte_word(points), length)
     second = _first_byte_word(points & (points - np.uint64(1)))
-    n_digits = length - (point < length) - signed
-    bad = ~_END_TABLE[padded[begin + length]] | (second < length) | (n_digits <= 0)
+    has_point = point < length
+    bad = ~_END_TABLE[padded[begin + length]] | (second < length) | (length - has_point - signed <= 0)
     digits *= is_digit
-    number = _eight_digits(digits.view(np.uint64)[:, 0] & _LIVE_WORD[length]).view(np.int64)
-    scale = _POW10_INT[8 - point]
-    whole = number // scale
-    fraction = (number - whole * scale) // _POW10_INT[8 - length]
-    decimals = np.maximum(length - 1 - point, 0)
-    values = (whole * _POW10_INT[decimals] + fraction) / _POW10[decimals]
-    return np.where(c0 == 45, -values, values), ~bad, longer
+    live = digits.view(np.uint64)[:, 0]
+    below = _LIVE_WORD[point]
+    live = ((live & below) | ((live >> np.uint64(8)) & ~below)) & _LIVE_WORD[length - has_point]
+    values = _eight_digits(live) / _POW10[8 - point]
+    return np.where(c0 == 45, -values, values), ~bad, longer, length
 
 
 def _first_byte_word(v: np.ndarray) -> np.ndarray:
@@ -509,35 +517,91 @@ def _parse_numbers(padded: np.ndarray, begin: np.ndarray) -> tuple[np.ndarray, n
     rounded value, the same as ``float(text)``. Chunks keep the temporaries in cache.
     Returns the values and a validity mask.
     """
-    words = np.ndarray(buffer=padded, dtype="<u8", shape=(len(padded) - 7,), strides=(1,))
+    words = _byte_words(padded)
     values = np.empty(len(begin))
     valid = np.empty(len(begin), dtype=bool)
     for s in range(0, len(begin), _CHUNK):
         part = begin[s : s + _CHUNK]
-        value, ok, longer = _parse_short(padded, words, part)
+        value, ok, longer, _ = _parse_short(padded, words, part)
         if longer.any():
             value[longer], ok[longer] = _parse_chunk(padded, words, part[longer])
         values[s : s + _CHUNK], valid[s : s + _CHUNK] = value, ok
     return values, valid
 
 
-def _tokens(padded: np.ndarray, n_bytes: int, first: np.ndarray, is_move: np.ndarray,
-            comment_start: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Axis words of move lines: (line index, upper-case letter, value, valid) per word.
+def _byte_words(padded: np.ndarray) -> np.ndarray:
+    """The little-endian uint64 starting at each byte of ``padded`` (a view)."""
+    return np.ndarray(buffer=padded, dtype="<u8", shape=(len(padded) - 7,), strides=(1,))
 
-    A word is an axis letter right after a blank, before the line's comment; its line is
-    the count of newlines before it, from one pass over blanks and newlines together.
+
+def _simple_words(padded: np.ndarray, first: np.ndarray, ends: np.ndarray,
+                  lines: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Axis words of the move ``lines`` written in the plain shape every slicer writes
+    most: ``G<n>`` then up to :data:`_SIMPLE_WORDS` words of an upper-case axis letter and
+    a valid number of at most 7 characters, each after one blank, and nothing else.
+
+    The words are found word by word over all such lines at once: a blank and an axis
+    letter, the number (:func:`_parse_short`, which also gives its length), then a blank
+    or the line's end. Returns (line index, letter, value) per word of the lines of that
+    shape, and the lines of ``lines`` that are not (for :func:`_general_words`).
     """
-    buf = padded[:n_bytes]
+    words = _byte_words(padded)
+    found: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+    other = np.zeros(len(first), dtype=bool)
+    active, pos = lines, first[lines] + 2
+    for _ in range(_SIMPLE_WORDS):
+        letter = padded[pos + 1]
+        ok = (padded[pos] == 32) & _UPPER_AXIS_TABLE[letter]
+        value, valid, longer, length = _parse_short(padded, words, pos + 2)
+        stop = pos + 2 + length
+        ok &= valid & ~longer
+        done = ok & (stop == ends[active])
+        ok &= done | (padded[stop] == 32)
+        other[active[~ok]] = True
+        found.append((active[ok], letter[ok], value[ok]))
+        going = ok & ~done
+        active, pos = active[going], stop[going]
+    other[active] = True
+    lid, letters, values = (np.concatenate(column) for column in zip(*found))
+    keep = ~other[lid]
+    return lid[keep], letters[keep], values[keep], lines[other[lines]]
+
+
+def _general_words(padded: np.ndarray, starts: np.ndarray, ends: np.ndarray, first: np.ndarray,
+                   lines: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Axis words of any move ``lines``: (line index, upper-case letter, value, valid) per word.
+
+    A word is an axis letter right after a blank, before the line's comment. The lines'
+    bytes are first gathered into one buffer (when they are a small part of the chunk),
+    then a word's line is the count of newlines before it, from one pass over blanks and
+    newlines together.
+    """
+    if not len(lines):
+        empty = np.zeros(0, dtype=np.int64)
+        return empty, empty.astype(np.uint8), empty.astype(float), empty.astype(bool)
+    sizes = ends[lines] - starts[lines] + 1
+    offsets = np.zeros(len(lines) + 1, dtype=np.int64)
+    np.cumsum(sizes, out=offsets[1:])
+    n_bytes = int(offsets[-1])
+    text = np.zeros(n_bytes + _TOKEN_WIDTH + 2, dtype=np.uint8)
+    text[:n_bytes] = padded[np.repeat(starts[lines] - offsets[:-1], sizes) + np.arange(n_bytes)]
+    text[offsets[1:] - 1] = 10
+    line_end = offsets[1:] - 1
+    comment_start = line_end.copy()
+    semis = np.flatnonzero(text[:n_bytes] == ord(";"))
+    if len(semis):
+        uniq, at = np.unique(np.searchsorted(offsets, semis, side="right") - 1, return_index=True)
+        comment_start[uniq] = semis[at]
+    buf = text[:n_bytes]
     separators = np.flatnonzero((buf == 32) | (buf == 9) | (buf == 10))
     newline = buf[separators] == 10
     line_of = np.cumsum(newline) - newline
-    word = _AXIS_TABLE[padded[separators + 1]] & ~newline
+    word = _AXIS_TABLE[text[separators + 1]] & ~newline
     pos, lid = separators[word] + 1, line_of[word]
-    keep = is_move[lid] & (pos < comment_start[lid]) & (pos > first[lid] + 1)
+    keep = (pos < comment_start[lid]) & (pos > first[lines][lid] - starts[lines][lid] + offsets[lid] + 1)
     pos, lid = pos[keep], lid[keep]
-    values, valid = _parse_numbers(padded, pos + 1)
-    return lid, padded[pos] & 0xDF, values, valid
+    values, valid = _parse_numbers(text, pos + 1)
+    return lines[lid], text[pos] & 0xDF, values, valid
 
 
 class _Reader:
@@ -617,12 +681,6 @@ class _Reader:
         )
         empty = first >= ends
         plain_comment = (c0 == ord(";")) & ~_COMMENT_KEYS[c1]
-        semis = np.flatnonzero(buf == ord(";"))
-        comment_start = ends.copy()
-        if len(semis):
-            semi_line = np.searchsorted(starts, semis, side="right") - 1
-            uniq, at = np.unique(semi_line, return_index=True)
-            comment_start[uniq] = semis[at]
 
         events = self.events
         events.begin_chunk()
@@ -638,13 +696,18 @@ class _Reader:
         n_rows = len(move_lines)
         row_of_line = np.full(n_lines, -1, dtype=np.int64)
         row_of_line[move_lines] = np.arange(n_rows)
-        lid, letters, values, valid = _tokens(padded, len(buf), first, is_move, comment_start)
+        lid, letters, values, rest = _simple_words(padded, first, ends, move_lines)
+        rest_lid, rest_letters, rest_values, valid = _general_words(padded, starts, ends, first, rest)
         faults = list(events.faults)
         for i in np.flatnonzero(~valid).tolist():
-            word = data[starts[lid[i]] : ends[lid[i]]].decode("utf-8", errors="replace").split(";")[0].strip()
-            faults.append(Fault(offset + int(lid[i]) + 1, f"{word}: {chr(letters[i])} value is not a finite number"))
+            line = int(rest_lid[i])
+            word = data[starts[line] : ends[line]].decode("utf-8", errors="replace").split(";")[0].strip()
+            faults.append(Fault(offset + line + 1, f"{word}: {chr(rest_letters[i])} value is not a finite number"))
+        lid = np.concatenate([lid, rest_lid[valid]])
+        letters = np.concatenate([letters, rest_letters[valid]])
+        values = np.concatenate([values, rest_values[valid]])
         table = np.full((n_rows, len(_AXES)), np.nan)
-        table[row_of_line[lid[valid]], _AXIS_COLUMN[letters[valid]]] = values[valid]
+        table[row_of_line[lid], _AXIS_COLUMN[letters]] = values
         axis = {letter: table[:, k] for k, letter in enumerate(_AXES)}
 
         move_numbers = move_lines + (offset + 1)
