@@ -126,3 +126,33 @@ def test_offset_polygons_equal_geos_offsets():
         assert np.all(shapely.area(shapely.symmetric_difference(got, want)) < 1e-8)
         assert np.all(shapely.is_valid(got))
         assert shapely.get_num_coordinates(got[1]) == shapely.get_num_coordinates(short_edge) - 1
+
+
+def test_offset_polygons_one_distance_per_polygon():
+    """Each polygon is eroded by its own distance; clockwise rings bevel sharp reflex corners too."""
+    smooth = shapely.Point(0, 0).buffer(10, quad_segs=32)
+    notch = shapely.Polygon([(0, 0), (10, 0), (10, 4), (2, 5), (10, 6), (10, 10), (0, 10)])  # 14 degree reflex corner
+    polygons = np.array([smooth, smooth, smooth, notch, notch.reverse()], dtype=object)
+    d = np.array([-0.2, -1.0, -4.0, -0.5, -0.5])
+    got, exact = offset_polygons(polygons, d)
+    want = offset(polygons, d)
+    assert exact[:3].all() and not exact[3:].any()
+    assert np.all(shapely.area(shapely.symmetric_difference(got, want)) < 1e-8)
+    assert np.allclose(shapely.area(got[:3]), shapely.area(want[:3]), rtol=0, atol=1e-9)
+
+
+def test_strict_offsets_are_geos_vertex_for_vertex():
+    """With ``strict``, polygons offset in numpy have GEOS's vertices in GEOS's order (up to
+    the exterior's orientation); holes, collapsing edges and nearly straight reflex corners
+    (where GEOS joins at an edge end) go to GEOS."""
+    smooth = shapely.Point(0, 0).buffer(10, quad_segs=32)
+    ccw = shapely.Polygon([(0, 0), (20, 0), (20, 10), (10, 9), (0, 10)])
+    holed = smooth.difference(shapely.Point(2, 1).buffer(3, quad_segs=16))
+    short_edge = shapely.Polygon([(0, 0), (20, 0), (20, 10), (10.025, 14), (9.975, 14), (0, 10)])
+    straight = shapely.Polygon([(0, 0), (20, 0), (20, 10), (10, 9.99995), (0, 10)])  # reflex corner of 0.0006 degrees
+    polygons = np.array([smooth, ccw, holed, short_edge, straight], dtype=object)
+    got, exact = offset_polygons(polygons, -0.5, strict=True)
+    assert exact.tolist() == [True, True, False, False, False]
+    want = offset(polygons[:2], -0.5)
+    got = shapely.orient_polygons(got[:2], exterior_cw=True)
+    assert np.abs(shapely.get_coordinates(got) - shapely.get_coordinates(want)).max() < 1e-9

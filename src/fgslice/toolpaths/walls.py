@@ -45,9 +45,10 @@ def offset(geoms, distance) -> np.ndarray:
     return shapely.buffer(geoms, distance, join_style="mitre", mitre_limit=MITRE_LIMIT)
 
 
-def offset_polygons(polygons, distance: float) -> tuple[np.ndarray, np.ndarray]:
+def offset_polygons(polygons, distance, *, strict: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Offset every Polygon of an array inward by ``-distance`` (mm, ``distance < 0``),
-    mitre joins.
+    mitre joins; ``distance`` is one value or one per polygon (so that one call offsets
+    a polygon to several distances when it is repeated).
 
     Where nothing happens to a polygon's topology the mitre offset is each vertex moved
     along its corner's bisector, ``v = p + d (o_a + o_b) / (1 + o_a . o_b)`` with
@@ -57,36 +58,55 @@ def offset_polygons(polygons, distance: float) -> tuple[np.ndarray, np.ndarray]:
     :data:`MITRE_LIMIT`, every edge keeps its direction (none collapses), every ring its
     orientation, and the result is a valid polygon (no two parts of its boundary cross,
     so no part splits, merges or vanishes); the others go through :func:`offset`.
+    Convex rings skip the validity test: when no edge reverses, their offset keeps every
+    edge's direction in the same order and is convex, hence simple.
+
+    ``strict`` sends to GEOS as well the polygons on which GEOS's result differs from the
+    exact mitre offset by more than rounding: those with holes or collapsing edges (GEOS
+    rebuilds their rings from another vertex) and those with a reflex corner whose
+    offset edges part by less than :data:`GEOS_JOIN_GAP` times the distance (GEOS then
+    keeps the end of the first offset edge instead of the mitre point). The polygons
+    offset in numpy then equal GEOS's up to the exterior's orientation (GEOS's is
+    clockwise, this one's that of the input).
 
     Returns:
         ``(result, exact)``: one geometry per input (a Polygon where ``exact``, else
         GEOS's result, possibly a MultiPolygon or empty); ``exact`` marks the polygons
         offset vertex by vertex, whose offset by ``-distance`` gives the input back.
     """
-    if not distance < 0:
-        raise ValueError(f"offset_polygons erodes (distance < 0), got {distance}")
     polygons = np.atleast_1d(np.asarray(polygons, dtype=object))
+    distance = np.broadcast_to(np.asarray(distance, dtype=float), polygons.shape)
+    if not np.all(distance < 0):
+        raise ValueError(f"offset_polygons erodes (distance < 0), got {distance.max()}")
     simple = (shapely.get_type_id(polygons) == shapely.GeometryType.POLYGON) & ~shapely.is_empty(polygons)
+    if strict:
+        simple &= shapely.get_num_interior_rings(polygons) == 0
     out = np.empty(len(polygons), dtype=object)
     exact = np.zeros(len(polygons), dtype=bool)
     todo = np.flatnonzero(simple)
     if len(todo):
-        moved, good = _mitre_offset(polygons[todo], distance)
+        moved, good = _mitre_offset(polygons[todo], distance[todo], strict)
         exact[todo] = good
         out[todo[good]] = moved[good]
     rest = np.flatnonzero(~exact)
     if len(rest):
-        out[rest] = offset(polygons[rest], distance)
+        out[rest] = offset(polygons[rest], distance[rest])
     return out, exact
 
 
-def _mitre_offset(polygons: np.ndarray, distance: float) -> tuple[np.ndarray, np.ndarray]:
-    """Vertex-by-vertex mitre offsets of non-empty Polygons, and per polygon whether it
-    is the true offset (see :func:`offset_polygons`).
+GEOS_JOIN_GAP = 1e-3
+"""GEOS's ``OFFSET_SEGMENT_SEPARATION_FACTOR``: at a join where the two offset edges part
+by less than this times the distance, GEOS joins them at the first edge's end."""
+
+
+def _mitre_offset(polygons: np.ndarray, distance: np.ndarray, strict: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Vertex-by-vertex mitre offsets of non-empty Polygons by one distance each, and per
+    polygon whether it is the true offset (see :func:`offset_polygons`).
 
     An edge that the offset reverses between two edges that keep their direction
     collapses: its two vertices become the meeting point of its neighbours' offset lines
-    (GEOS gives the same corner after removing the reversed edge's loop).
+    (GEOS gives the same corner after removing the reversed edge's loop); with ``strict``
+    the polygon goes to GEOS instead.
     """
     rings, ring_poly = shapely.get_rings(polygons, return_index=True)
     coords, ring = shapely.get_coordinates(rings, return_index=True)
@@ -94,6 +114,7 @@ def _mitre_offset(polygons: np.ndarray, distance: float) -> tuple[np.ndarray, np
     opened = np.ones(len(coords), dtype=bool)
     opened[np.cumsum(sizes + 1) - 1] = False
     p, ring = coords[opened], ring[opened]
+    d = distance[ring_poly[ring]]
     first = np.cumsum(sizes) - sizes
     nxt = np.arange(1, len(p) + 1)
     nxt[first + sizes - 1] = first
@@ -106,16 +127,20 @@ def _mitre_offset(polygons: np.ndarray, distance: float) -> tuple[np.ndarray, np
     side = (np.where(hole, -1.0, 1.0) * np.sign(area))[ring]  # +1: interior left of the edges
     with np.errstate(divide="ignore", invalid="ignore"):
         normal = np.column_stack([edge[:, 1], -edge[:, 0]]) * (side / length)[:, None]
-        level = np.einsum("ij,ij->i", normal, p) + distance  # offset line k: normal_k . q = level_k
+        level = np.einsum("ij,ij->i", normal, p) + d  # offset line k: normal_k . q = level_k
         o_a = normal[prv]
-        v = p + distance * (o_a + normal) / (1.0 + np.einsum("ij,ij->i", o_a, normal))[:, None]
-        bad = _cut_mitre(o_a, normal, distance) | ~(length > 0)
+        v = p + d[:, None] * (o_a + normal) / (1.0 + np.einsum("ij,ij->i", o_a, normal))[:, None]
+        turn = (o_a[:, 0] * normal[:, 1] - o_a[:, 1] * normal[:, 0]) * side  # > 0: convex corner
+        bad = _cut_mitre(o_a, normal, d * side) | ~(length > 0)
+        if strict:
+            gap = o_a - normal
+            bad |= (turn < 0) & (np.einsum("ij,ij->i", gap, gap) < GEOS_JOIN_GAP**2)
         rev = np.einsum("ij,ij->i", v[nxt] - v, edge) <= 0
         collapse = rev & ~rev[prv] & ~rev[nxt]
-        bad |= rev & ~collapse
+        bad |= rev & ~collapse if not strict else rev
         i = np.flatnonzero(collapse)
         v[i] = _meet(normal[prv[i]], level[prv[i]], normal[nxt[i]], level[nxt[i]])
-        bad[i] |= _cut_mitre(normal[prv[i]], normal[nxt[i]], distance)
+        bad[i] |= _cut_mitre(normal[prv[i]], normal[nxt[i]], d[i] * side[i])
         kept = np.ones(len(p), dtype=bool)
         kept[nxt[i]] = False
         # each kept vertex starts the original edge after the one it swallowed, if any
@@ -129,6 +154,10 @@ def _mitre_offset(polygons: np.ndarray, distance: float) -> tuple[np.ndarray, np
     bad_ring = np.bincount(ring, bad, minlength=len(rings)) > 0
     bad_ring |= (new_sizes < 3) | (area == 0) | (np.sign(new_area) != np.sign(area))
     good = np.bincount(ring_poly, bad_ring, minlength=len(polygons)) == 0
+    convex_ring = np.bincount(ring, turn <= 0, minlength=len(rings)) == 0
+    convex = good & (np.bincount(ring_poly, ~convex_ring | hole, minlength=len(polygons)) == 0) & ~np.bincount(
+        ring_poly[ring[i]], minlength=len(polygons)
+    ).astype(bool)
     # the good polygons' rings, each closed by repeating its first vertex
     good_ring = good[ring_poly]
     kept &= good_ring[ring]
@@ -141,7 +170,8 @@ def _mitre_offset(polygons: np.ndarray, distance: float) -> tuple[np.ndarray, np
     poly_at = np.r_[0, np.cumsum(np.bincount(ring_poly, minlength=len(polygons))[good])]
     result = np.empty(len(polygons), dtype=object)
     result[good] = shapely.from_ragged_array(shapely.GeometryType.POLYGON, out, (ring_at, poly_at))
-    good[good] = shapely.is_valid(result[good])
+    check = good & ~convex
+    good[check] = shapely.is_valid(result[check])
     return result, good
 
 
@@ -154,10 +184,11 @@ def _meet(normal_a: np.ndarray, level_a: np.ndarray, normal_b: np.ndarray, level
     return np.column_stack([x, y])
 
 
-def _cut_mitre(normal_a: np.ndarray, normal_b: np.ndarray, distance: float) -> np.ndarray:
+def _cut_mitre(normal_a: np.ndarray, normal_b: np.ndarray, distance) -> np.ndarray:
     """Corners between edges of outward normals ``normal_a`` then ``normal_b`` whose mitre
-    the offset by ``distance`` would bevel: where the offset edges part (convex corners
-    when growing, reflex ones when shrinking) and the mitre is longer than
+    the offset by ``distance`` would bevel, ``distance`` (one value or one per corner)
+    being multiplied by -1 on rings whose interior lies right of their edges: where the
+    offset edges part (convex corners when growing, reflex ones when shrinking) and the mitre is longer than
     :data:`MITRE_LIMIT` times the distance."""
     turn = (normal_a[:, 0] * normal_b[:, 1] - normal_a[:, 1] * normal_b[:, 0]) * np.sign(distance)
     denom = 1.0 + np.einsum("ij,ij->i", normal_a, normal_b)
@@ -247,6 +278,19 @@ def _mitres_exact(outline) -> bool:
     return bool(np.all(cos <= np.cos(np.deg2rad(SHARPEST_EXACT_CORNER))))
 
 
+def _erosions(outline, distances: np.ndarray) -> np.ndarray:
+    """``offset(outline, -distances)``: one geometry per distance (mm). An outline of one
+    polygon without holes is eroded to every distance in one :func:`offset_polygons`
+    call (strict, so equal to GEOS's up to rounding; exteriors made clockwise like
+    GEOS's), GEOS eroding only the distances where an event happens."""
+    parts = shapely.get_parts(outline)
+    if len(parts) != 1:
+        return offset(outline, -distances)
+    eroded, exact = offset_polygons(np.repeat(parts, len(distances)), -distances, strict=True)
+    eroded[exact] = shapely.orient_polygons(eroded[exact], exterior_cw=True)
+    return eroded
+
+
 def _same_combinatorics(a, b) -> np.ndarray:
     """Per pair, whether two inward offsets of one outline have the same parts, holes and
     vertex count: no edge vanished and no part split or vanished between their distances."""
@@ -308,7 +352,7 @@ def make_walls(outline, count: int, width: float, height: float, *, outer_first:
     if count == 0 or outline.is_empty:
         return Walls([], offset(outline, -width / 2))
     dist = width / 2 + s * np.arange(count)
-    levels = offset(outline, -np.r_[dist, dist[-1] + s / 2, dist[-1] + s])
+    levels = _erosions(outline, np.r_[dist, dist[-1] + s / 2, dist[-1] + s])
     centers, inner = levels[:count], levels[count]
     unchanged = _same_combinatorics(levels[:count], np.r_[levels[1:count], levels[count + 1]])
     redo = np.flatnonzero(~unchanged if unchanged.any() and _mitres_exact(outline) else np.ones(count, dtype=bool))
