@@ -669,14 +669,17 @@ class Fgrade(Node):
         expressions = [f.expression for f in self.fields]
         return None if any(e is None for e in expressions) else combine_expressions(expressions)
 
+    def _values(self, x, y, z) -> list:
+        """The fields' raw values at broadcast points of this node's frame, in material order."""
+        d = self._body.sdf(x, y, z) if any(f.uses_d for f in self.fields) else None
+        if self._group is not None:
+            return self._group(x, y, z, d)
+        return [field(x, y, z, d) for field in self.fields]
+
     def own_fractions(self, x, y, z, columns: Columns) -> np.ndarray:
         """This node's raw fractions ``shape + (k,)`` at broadcast points of its frame."""
         shape = np.broadcast_shapes(*map(np.shape, (x, y, z)))
-        d = self._body.sdf(x, y, z) if any(f.uses_d for f in self.fields) else None
-        if self._group is not None:
-            values = self._group(x, y, z, d)
-        else:
-            values = [field(x, y, z, d) for field in self.fields]
+        values = self._values(x, y, z)
         out = np.zeros(shape + (columns.k,))
         cols = [columns.index[name.lower()] for name in self.materials]
         for value, col in zip(values, cols):
@@ -686,6 +689,32 @@ class Fgrade(Node):
             winner = np.asarray(cols)[np.argmax(clamped, axis=-1)]
             out[...] = 0.0
             np.put_along_axis(out, winner[..., None], 1.0, axis=-1)
+        return out
+
+    def own_normalized(self, x, y, z, columns: Columns) -> np.ndarray:
+        """``normalized(own_fractions(...))``, the same values computed on contiguous
+        columns (clamped, summed and divided one material at a time) before they are
+        packed into the ``shape + (k,)`` result."""
+        if self.mode == "thresh":
+            return normalized(self.own_fractions(x, y, z, columns))
+        shape = np.broadcast_shapes(*map(np.shape, (x, y, z)))
+        by_column = dict(zip((columns.index[name.lower()] for name in self.materials), self._values(x, y, z)))
+        f = []
+        for col in range(columns.k):
+            value = np.fmax(by_column.get(col, 0.0), 0.0, dtype=float)
+            if value.shape != shape:
+                value = np.array(np.broadcast_to(value, shape))
+            f.append(np.fmin(value, 1.0, out=value))
+        total = f[0].copy()
+        for value in f[1:]:
+            total += value
+        empty = total <= 0
+        if empty.any():
+            f[0][empty] = 1.0
+            total[empty] = 1.0
+        out = np.empty(shape + (columns.k,))
+        for col, value in enumerate(f):
+            np.divide(value, total, out=out[..., col])
         return out
 
     coordinate_free = False
@@ -835,16 +864,13 @@ class NodeDesign(Design):
         x, y, z = (v.reshape((1,) * (ndim - v.ndim) + v.shape) for v in (x, y, z))
         full = shape or (1,)
         rows = max(1, CHUNK // max(1, math.prod(full[1:])))
+        own = root.own_normalized if normalize else root.own_fractions
         if full[0] <= rows:
-            raw = root.own_fractions(x, y, z, self.columns)
-            if raw.shape[:-1] == full:
-                return (normalized(raw) if normalize else raw).reshape(shape + (self.columns.k,))
+            return own(x, y, z, self.columns).reshape(shape + (self.columns.k,))
         out = np.empty(full + (self.columns.k,))
         for start in range(0, full[0], rows):
             block = slice(start, start + rows)
-            raw = root.own_fractions(*(v[block] if v.shape[0] > 1 else v for v in (x, y, z)), self.columns)
-            raw = np.broadcast_to(raw, out[block].shape)
-            out[block] = normalized(raw) if normalize else raw
+            out[block] = own(*(v[block] if v.shape[0] > 1 else v for v in (x, y, z)), self.columns)
         return out.reshape(shape + (self.columns.k,))
 
     def raw_fractions(self, x, y, z) -> np.ndarray:
