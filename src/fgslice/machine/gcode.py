@@ -401,6 +401,7 @@ class GcodeWriter:
         self.now = now
         self.filament_area = np.pi * settings.filament_diameter**2 / 4.0
         self._state: int | None = None
+        self._state_texts: dict[int, str] = {}  # the dialect's commands depend on the color only
         self._pos: tuple[float, float] | None = None
         self._z = 0.0
         self._role: Role | None = None
@@ -515,7 +516,10 @@ class GcodeWriter:
         self._state_changes += 1
         self._colors_used.add(color)
         self._time_s += self.dialect.change_time_s
-        return "\n".join(self.dialect.state_commands(color)) + "\n"
+        text = self._state_texts.get(color)
+        if text is None:
+            text = self._state_texts[color] = "\n".join(self.dialect.state_commands(color)) + "\n"
+        return text
 
     def _feeds(self, role_codes: np.ndarray, layer_index: int) -> np.ndarray:
         """Print speed (mm/s) of paths of roles ``ROLES[role_codes]`` on layer ``layer_index``."""
