@@ -416,14 +416,15 @@ def _pieces(paths, lines: _Lines, cpid, carc, clab, first_label, min_length: flo
     item_pid = np.r_[whole, rpid]
     order = np.argsort(item_pid, kind="stable")
     item_piece = np.r_[np.full(len(whole), -1), np.arange(len(rpid))][order]
-    bounds, labels, whole_labels = offsets.tolist(), lab.tolist(), whole_label.tolist()
+    labels, whole_labels = lab.tolist(), whole_label.tolist()
+    starts, ends = offsets[:-1].tolist(), offsets[1:].tolist()
     out = []
     for i, r in zip(item_pid[order].tolist(), item_piece.tolist()):
         p = paths[i]
         if r < 0:
             out.append(Path(p.points, p.role, whole_labels[i], p.width, p.height, p.closed, p.group))
         else:
-            out.append(Path(xy[bounds[r] : bounds[r + 1]], p.role, labels[r], p.width, p.height, False, p.group))
+            out.append(Path(xy[starts[r] : ends[r]], p.role, labels[r], p.width, p.height, False, p.group))
     return out
 
 
