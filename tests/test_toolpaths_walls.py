@@ -141,18 +141,21 @@ def test_offset_polygons_one_distance_per_polygon():
     assert np.allclose(shapely.area(got[:3]), shapely.area(want[:3]), rtol=0, atol=1e-9)
 
 
-def test_strict_offsets_are_geos_vertex_for_vertex():
-    """With ``strict``, polygons offset in numpy have GEOS's vertices in GEOS's order (up to
-    the exterior's orientation); holes, collapsing edges and nearly straight reflex corners
-    (where GEOS joins at an edge end) go to GEOS."""
-    smooth = shapely.Point(0, 0).buffer(10, quad_segs=32)
-    ccw = shapely.Polygon([(0, 0), (20, 0), (20, 10), (10, 9), (0, 10)])
-    holed = smooth.difference(shapely.Point(2, 1).buffer(3, quad_segs=16))
-    short_edge = shapely.Polygon([(0, 0), (20, 0), (20, 10), (10.025, 14), (9.975, 14), (0, 10)])
-    straight = shapely.Polygon([(0, 0), (20, 0), (20, 10), (10, 9.99995), (0, 10)])  # reflex corner of 0.0006 degrees
-    polygons = np.array([smooth, ccw, holed, short_edge, straight], dtype=object)
-    got, exact = offset_polygons(polygons, -0.5, strict=True)
-    assert exact.tolist() == [True, True, False, False, False]
-    want = offset(polygons[:2], -0.5)
-    got = shapely.orient_polygons(got[:2], exterior_cw=True)
-    assert np.abs(shapely.get_coordinates(got) - shapely.get_coordinates(want)).max() < 1e-9
+@pytest.mark.parametrize("reverse", [False, True])
+def test_convex_walls_are_geos_offsets_vertex_for_vertex(reverse):
+    """Smooth convex outlines (the vase's ellipses) are eroded in numpy to every level at once;
+    the loops are GEOS's mitre erosions, same vertices from the same start, whichever the
+    outline's orientation, also where an edge collapses before the innermost level."""
+    oval = shapely.affinity.scale(shapely.Point(50, 50).buffer(1, quad_segs=64), 20, 30)
+    chamfered = shapely.Polygon([(0, 0), (20, 0), (20, 9.3), (19.3, 10), (0, 10)])  # 1 mm edge, gone at 1.2 mm
+    s, count = bead_spacing(W, H), 6
+    for shape in (oval, chamfered):
+        outline = shape.reverse() if reverse else shape
+        walls = make_walls(outline, count, W, H, outer_first=True)
+        simple = simplify_polygons(outline, OUTLINE_TOLERANCE)
+        want = offset(simple, -(W / 2 + s * np.arange(count)))
+        assert len(walls.paths) == count
+        for path, loop in zip(walls.paths, want):
+            ring = shapely.get_coordinates(shapely.get_exterior_ring(loop))[:-1]
+            assert path.points.shape == ring.shape
+            assert np.abs(path.points - ring).max() < 1e-9

@@ -45,7 +45,7 @@ def offset(geoms, distance) -> np.ndarray:
     return shapely.buffer(geoms, distance, join_style="mitre", mitre_limit=MITRE_LIMIT)
 
 
-def offset_polygons(polygons, distance, *, strict: bool = False) -> tuple[np.ndarray, np.ndarray]:
+def offset_polygons(polygons, distance) -> tuple[np.ndarray, np.ndarray]:
     """Offset every Polygon of an array inward by ``-distance`` (mm, ``distance < 0``),
     mitre joins; ``distance`` is one value or one per polygon (so that one call offsets
     a polygon to several distances when it is repeated).
@@ -61,14 +61,6 @@ def offset_polygons(polygons, distance, *, strict: bool = False) -> tuple[np.nda
     Convex rings skip the validity test: when no edge reverses, their offset keeps every
     edge's direction in the same order and is convex, hence simple.
 
-    ``strict`` sends to GEOS as well the polygons on which GEOS's result differs from the
-    exact mitre offset by more than rounding: those with holes or collapsing edges (GEOS
-    rebuilds their rings from another vertex) and those with a reflex corner whose
-    offset edges part by less than :data:`GEOS_JOIN_GAP` times the distance (GEOS then
-    keeps the end of the first offset edge instead of the mitre point). The polygons
-    offset in numpy then equal GEOS's up to the exterior's orientation (GEOS's is
-    clockwise, this one's that of the input).
-
     Returns:
         ``(result, exact)``: one geometry per input (a Polygon where ``exact``, else
         GEOS's result, possibly a MultiPolygon or empty); ``exact`` marks the polygons
@@ -79,13 +71,11 @@ def offset_polygons(polygons, distance, *, strict: bool = False) -> tuple[np.nda
     if not np.all(distance < 0):
         raise ValueError(f"offset_polygons erodes (distance < 0), got {distance.max()}")
     simple = (shapely.get_type_id(polygons) == shapely.GeometryType.POLYGON) & ~shapely.is_empty(polygons)
-    if strict:
-        simple &= shapely.get_num_interior_rings(polygons) == 0
     out = np.empty(len(polygons), dtype=object)
     exact = np.zeros(len(polygons), dtype=bool)
     todo = np.flatnonzero(simple)
     if len(todo):
-        moved, good = _mitre_offset(polygons[todo], distance[todo], strict)
+        moved, good = _mitre_offset(polygons[todo], distance[todo])
         exact[todo] = good
         out[todo[good]] = moved[good]
     rest = np.flatnonzero(~exact)
@@ -94,19 +84,13 @@ def offset_polygons(polygons, distance, *, strict: bool = False) -> tuple[np.nda
     return out, exact
 
 
-GEOS_JOIN_GAP = 1e-3
-"""GEOS's ``OFFSET_SEGMENT_SEPARATION_FACTOR``: at a join where the two offset edges part
-by less than this times the distance, GEOS joins them at the first edge's end."""
-
-
-def _mitre_offset(polygons: np.ndarray, distance: np.ndarray, strict: bool) -> tuple[np.ndarray, np.ndarray]:
+def _mitre_offset(polygons: np.ndarray, distance: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Vertex-by-vertex mitre offsets of non-empty Polygons by one distance each, and per
     polygon whether it is the true offset (see :func:`offset_polygons`).
 
     An edge that the offset reverses between two edges that keep their direction
     collapses: its two vertices become the meeting point of its neighbours' offset lines
-    (GEOS gives the same corner after removing the reversed edge's loop); with ``strict``
-    the polygon goes to GEOS instead.
+    (GEOS gives the same corner after removing the reversed edge's loop).
     """
     rings, ring_poly = shapely.get_rings(polygons, return_index=True)
     coords, ring = shapely.get_coordinates(rings, return_index=True)
@@ -132,12 +116,9 @@ def _mitre_offset(polygons: np.ndarray, distance: np.ndarray, strict: bool) -> t
         v = p + d[:, None] * (o_a + normal) / (1.0 + np.einsum("ij,ij->i", o_a, normal))[:, None]
         turn = (o_a[:, 0] * normal[:, 1] - o_a[:, 1] * normal[:, 0]) * side  # > 0: convex corner
         bad = _cut_mitre(o_a, normal, d * side) | ~(length > 0)
-        if strict:
-            gap = o_a - normal
-            bad |= (turn < 0) & (np.einsum("ij,ij->i", gap, gap) < GEOS_JOIN_GAP**2)
         rev = np.einsum("ij,ij->i", v[nxt] - v, edge) <= 0
         collapse = rev & ~rev[prv] & ~rev[nxt]
-        bad |= rev & ~collapse if not strict else rev
+        bad |= rev & ~collapse
         i = np.flatnonzero(collapse)
         v[i] = _meet(normal[prv[i]], level[prv[i]], normal[nxt[i]], level[nxt[i]])
         bad[i] |= _cut_mitre(normal[prv[i]], normal[nxt[i]], d[i] * side[i])
@@ -222,7 +203,7 @@ def ring_groups(geoms) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     big = shapely.get_num_coordinates(rings) >= 4
     rings, ring_part = rings[big], ring_part[big]
     coords, index = shapely.get_coordinates(rings, return_index=True)
-    last = np.r_[index[1:] != index[:-1], True]
+    last = np.append(index[1:] != index[:-1], True)
     return coords[~last], index[~last], part_src[ring_part]
 
 
@@ -234,8 +215,8 @@ def split_rings(coords: np.ndarray, index: np.ndarray, roles, colors, width, hei
     """
     if len(coords) == 0:
         return []
-    starts = np.flatnonzero(np.r_[True, index[1:] != index[:-1]])
-    ends = np.r_[starts[1:], len(coords)]
+    starts = np.flatnonzero(np.insert(index[1:] != index[:-1], 0, True))
+    ends = np.append(starts[1:], len(coords))
     n = len(starts)
     roles = [roles] * n if isinstance(roles, Role) else list(roles)
     colors = np.broadcast_to(np.asarray(colors, dtype=int), (n,)).tolist()
@@ -250,7 +231,7 @@ def split_rings(coords: np.ndarray, index: np.ndarray, roles, colors, width, hei
 def island_of(outline, coords: np.ndarray, ring_index: np.ndarray) -> np.ndarray:
     """For each ring (flat vertices as :func:`ring_groups` gives), the index of the part
     of ``outline`` that holds its first vertex (-1 if none)."""
-    first = np.flatnonzero(np.r_[True, ring_index[1:] != ring_index[:-1]])
+    first = np.flatnonzero(np.insert(ring_index[1:] != ring_index[:-1], 0, True))
     islands = shapely.get_parts(outline)
     ring, island = shapely.STRtree(islands).query(shapely.points(coords[first]), predicate="intersects")
     out = np.full(len(first), -1, dtype=np.int64)
@@ -269,8 +250,8 @@ def _mitres_exact(outline) -> bool:
     coords, ring, _ = ring_groups(outline)
     if len(coords) == 0:
         return True
-    first = np.flatnonzero(np.r_[True, ring[1:] != ring[:-1]])
-    last = np.r_[first[1:], len(coords)] - 1
+    first = np.flatnonzero(np.insert(ring[1:] != ring[:-1], 0, True))
+    last = np.append(first[1:], len(coords)) - 1
     nxt, prv = np.arange(1, len(coords) + 1), np.arange(-1, len(coords) - 1)
     nxt[last], prv[first] = first, last
     u, v = coords[prv] - coords, coords[nxt] - coords
@@ -279,16 +260,50 @@ def _mitres_exact(outline) -> bool:
 
 
 def _erosions(outline, distances: np.ndarray) -> np.ndarray:
-    """``offset(outline, -distances)``: one geometry per distance (mm). An outline of one
-    polygon without holes is eroded to every distance in one :func:`offset_polygons`
-    call (strict, so equal to GEOS's up to rounding; exteriors made clockwise like
-    GEOS's), GEOS eroding only the distances where an event happens."""
+    """``offset(outline, -distances)``: one geometry per distance (mm). A convex outline
+    of one polygon without holes (the vase's ellipses) is eroded to every distance at once
+    by :func:`_convex_erosions`; other outlines by one GEOS call (numpy offsets of
+    concave mesh sections meet an event at most levels, and GEOS then redoes them)."""
     parts = shapely.get_parts(outline)
-    if len(parts) != 1:
-        return offset(outline, -distances)
-    eroded, exact = offset_polygons(np.repeat(parts, len(distances)), -distances, strict=True)
-    eroded[exact] = shapely.orient_polygons(eroded[exact], exterior_cw=True)
-    return eroded
+    if len(parts) == 1:
+        convex = _convex_erosions(parts[0], distances)
+        if convex is not None:
+            return convex
+    return offset(outline, -distances)
+
+
+def _convex_erosions(polygon, distances: np.ndarray) -> np.ndarray | None:
+    """Exact mitre erosions of a convex Polygon without holes to several distances (mm,
+    > 0), exteriors clockwise from the input's first vertex like GEOS's; None when the
+    polygon has holes or a corner that is not strictly convex, or an edge would reverse.
+
+    Every vertex moves along its corner's mitre vector ``m = (o_a + o_b) / (1 + o_a . o_b)``
+    (see :func:`offset_polygons`), the same at every distance, so all levels cost one
+    product. An edge's direction changes linearly with the distance: kept at the largest
+    one, it is kept at all. A convex polygon's offset that keeps every edge's direction is
+    convex, hence valid, and GEOS's has the same vertices (convex corners are neither
+    bevelled nor simplified when eroding).
+    """
+    if shapely.get_num_interior_rings(polygon):
+        return None
+    p = shapely.get_coordinates(polygon)[:-1]
+    if not shapely.is_ccw(shapely.get_exterior_ring(polygon)):
+        p = np.roll(p[::-1], 1, axis=0)
+    edge = np.roll(p, -1, axis=0) - p
+    with np.errstate(divide="ignore", invalid="ignore"):
+        normal = np.column_stack([edge[:, 1], -edge[:, 0]]) / np.hypot(*edge.T)[:, None]
+        o_a = np.roll(normal, 1, axis=0)
+        if not np.all(o_a[:, 0] * normal[:, 1] - o_a[:, 1] * normal[:, 0] > 0):
+            return None
+        mitre = (o_a + normal) / (1.0 + np.einsum("ij,ij->i", o_a, normal))[:, None]
+    shifted = edge - distances.max() * (np.roll(mitre, -1, axis=0) - mitre)
+    if not np.all(np.einsum("ij,ij->i", shifted, edge) > 0):
+        return None
+    n, levels = len(p), len(distances)
+    ring = np.arange(n, -1, -1) % n  # clockwise, closed
+    coords = (p[ring] - distances[:, None, None] * mitre[ring]).reshape(-1, 2)
+    offsets = (np.arange(levels + 1) * (n + 1), np.arange(levels + 1))
+    return shapely.from_ragged_array(shapely.GeometryType.POLYGON, coords, offsets)
 
 
 def _same_combinatorics(a, b) -> np.ndarray:
@@ -352,7 +367,7 @@ def make_walls(outline, count: int, width: float, height: float, *, outer_first:
     if count == 0 or outline.is_empty:
         return Walls([], offset(outline, -width / 2))
     dist = width / 2 + s * np.arange(count)
-    levels = _erosions(outline, np.r_[dist, dist[-1] + s / 2, dist[-1] + s])
+    levels = _erosions(outline, np.append(dist, dist[-1] + np.array([s / 2, s])))
     centers, inner = levels[:count], levels[count]
     unchanged = _same_combinatorics(levels[:count], np.r_[levels[1:count], levels[count + 1]])
     redo = np.flatnonzero(~unchanged if unchanged.any() and _mitres_exact(outline) else np.ones(count, dtype=bool))
