@@ -127,8 +127,8 @@ class _Lines:
         counts = np.array([len(v) for v in verts])
         vertex = _complex(np.concatenate(verts))
         pid = np.repeat(np.arange(len(paths)), counts)
-        step = np.r_[0.0, np.abs(np.diff(vertex))]
-        first = np.r_[0, np.cumsum(counts)[:-1]]
+        step = np.concatenate(([0.0], np.abs(np.diff(vertex))))
+        first = np.concatenate(([0], np.cumsum(counts)[:-1]))
         step[first] = 0.0
         cum = np.cumsum(step)
         arc = cum - np.repeat(cum[first], counts)
@@ -238,7 +238,7 @@ def _sample(lines: _Lines, field, palette, z: float, w: float, beta: float):
     p0 = a[src] + step * j
     cpid = pid[seg][src]
     n = len(src)
-    last = np.flatnonzero(np.r_[cpid[1:] != cpid[:-1], True])
+    last = np.flatnonzero(np.concatenate((cpid[1:] != cpid[:-1], [True])))
     f = field.fractions(_xy(np.concatenate([p0, p0 + step / 2, p0[last] + step[last]])), z)
     f0, fm = f[:n], f[n : 2 * n]
     f1 = np.empty_like(f0)
@@ -328,7 +328,7 @@ def cut_by_color(paths: list[Path], field, palette, z: float, layer_index: int, 
     lines = _Lines.of(paths)
     dense, color, neighbor = _sample(lines, field, palette, z, w, beta)
     first_sub = dense.offset[np.searchsorted(dense.pid, np.arange(len(paths)))]
-    last_sub = np.r_[first_sub[1:], dense.size] - 1
+    last_sub = np.concatenate((first_sub[1:], [dense.size])) - 1
     color_change = _changes(color, first_sub)
     label, label_change = color, color_change
     band = np.flatnonzero(neighbor >= 0) if beta > 0 else np.empty(0, dtype=np.int64)
@@ -337,7 +337,7 @@ def cut_by_color(paths: list[Path], field, palette, z: float, layer_index: int, 
         length = dense.length[piece]
         arc_mid = dense.arc0[piece] + length * (band - dense.offset[piece] + 0.5)
         at = np.minimum(np.searchsorted(first_sub, band), len(paths) - 1)
-        run_start = np.r_[True, np.diff(band) != 1] | (first_sub[at] == band)
+        run_start = np.concatenate(([True], np.diff(band) != 1)) | (first_sub[at] == band)
         label = color.copy()
         label[band] = zipper_labels(
             color[band], neighbor[band], run_start, dense.segment[piece], arc_mid, length,
@@ -347,8 +347,8 @@ def cut_by_color(paths: list[Path], field, palette, z: float, layer_index: int, 
 
     # cuts between consecutive sub-segments (and across the start of closed paths)
     wrap = np.flatnonzero(lines.closed & (label[last_sub] != label[first_sub]))
-    k = np.r_[label_change - 1, last_sub[wrap]]
-    nxt = np.r_[label_change, first_sub[wrap]]
+    k = np.concatenate((label_change - 1, last_sub[wrap]))
+    nxt = np.concatenate((label_change, first_sub[wrap]))
     sk = dense.locate(k)
     u = sk.length / 2
     if beta > 0:
@@ -357,7 +357,7 @@ def cut_by_color(paths: list[Path], field, palette, z: float, layer_index: int, 
         band_k = band_n = np.zeros(len(nxt), dtype=bool)
     # cuts searched on the color (neither side in a band), then on the band edge
     by_color, by_band = np.flatnonzero(~band_k & ~band_n), np.flatnonzero(band_k != band_n)
-    searched = np.r_[by_color, by_band]
+    searched = np.concatenate((by_color, by_band))
     if len(searched):
         split = len(by_color) * (SEARCH_SPLITS - 1)
         want_color = np.repeat(color[k[by_color]], SEARCH_SPLITS - 1)
@@ -376,7 +376,7 @@ def cut_by_color(paths: list[Path], field, palette, z: float, layer_index: int, 
     cpid = sk.pid
     carc = np.mod(sk.arc_start + sk.length / 2 + u, lines.total[cpid])
     pieces = _pieces(paths, lines, cpid, carc, label[nxt], label[first_sub], w)
-    run_first = np.sort(np.r_[first_sub, color_change])
+    run_first = np.sort(np.concatenate((first_sub, color_change)))
     runs = dense.locate(run_first)
     return Cut(pieces, _color_runs(runs.pid, color[run_first], runs.arc_start, lines.total, lines.closed))
 
@@ -394,9 +394,10 @@ def _pieces(paths, lines: _Lines, cpid, carc, clab, first_label, min_length: flo
     has_cuts = np.bincount(cpid, minlength=n_paths) > 0
     # an open path's first piece starts at arc 0, in the path's first color
     opening = np.flatnonzero(has_cuts & ~closed)
-    rpid = np.r_[opening, cpid]
-    order = np.lexsort((np.r_[np.zeros(len(opening)), carc], rpid))
-    rpid, start, lab = rpid[order], np.r_[np.zeros(len(opening)), carc][order], np.r_[first_label[opening], clab][order]
+    rpid = np.concatenate((opening, cpid))
+    start = np.concatenate((np.zeros(len(opening)), carc))
+    order = np.lexsort((start, rpid))
+    rpid, start, lab = rpid[order], start[order], np.concatenate((first_label[opening], clab))[order]
     bounds = np.searchsorted(rpid, np.arange(n_paths + 1))
     end = np.empty_like(start)
     end[:-1] = start[1:]
@@ -413,9 +414,9 @@ def _pieces(paths, lines: _Lines, cpid, carc, clab, first_label, min_length: flo
     rpid, start, end, lab = rpid[~one], start[~one], end[~one], lab[~one]
     whole = np.flatnonzero(count <= 1)
     xy, offsets = _piece_points(lines, rpid, start, end)
-    item_pid = np.r_[whole, rpid]
+    item_pid = np.concatenate((whole, rpid))
     order = np.argsort(item_pid, kind="stable")
-    item_piece = np.r_[np.full(len(whole), -1), np.arange(len(rpid))][order]
+    item_piece = np.concatenate((np.full(len(whole), -1), np.arange(len(rpid))))[order]
     labels, whole_labels = lab.tolist(), whole_label.tolist()
     starts, ends = offsets[:-1].tolist(), offsets[1:].tolist()
     out = []
@@ -449,8 +450,8 @@ def _merge_windows(rpid, start, end, lab, bounds, min_length: float, closed, tot
     touched &= open_piece
     # windows: consecutive touched pieces of a path, broken between two long pieces
     joined = same_path & touched[1:] & touched[:-1] & (is_short[1:] | is_short[:-1])
-    first = np.flatnonzero(touched & ~np.r_[False, joined])
-    last = np.flatnonzero(touched & ~np.r_[joined, False])
+    first = np.flatnonzero(touched & ~np.concatenate(([False], joined)))
+    last = np.flatnonzero(touched & ~np.concatenate((joined, [False])))
     whole = np.flatnonzero(np.bincount(rpid[is_short & ~open_piece], minlength=len(closed)) > 0)
     keep = ~touched & ~np.isin(rpid, whole)
     rows = [(rpid[keep], start[keep], end[keep], lab[keep])]
@@ -473,21 +474,21 @@ def _piece_points(lines: _Lines, rpid, s0, s1) -> tuple[np.ndarray, np.ndarray]:
     Vertices within :data:`VERTEX_TOLERANCE` of a piece's ends are left out (a cut on a
     vertex, e.g. at a zipper tooth boundary, gives no repeated point).
     """
-    counts = np.diff(np.r_[lines.first, len(lines.vertex)])
+    counts = np.diff(np.concatenate((lines.first, [len(lines.vertex)])))
     ext = counts + np.where(lines.closed, counts - 1, 0)
     owner, rank = _repeat_index(ext)
     again = rank >= counts[owner]
     src = lines.first[owner] + np.where(again, rank - counts[owner] + 1, rank)
     vertex = lines.vertex[src]
-    gap = np.r_[0.0, np.cumsum(2 * lines.total + 1.0)[:-1]]
+    gap = np.concatenate(([0.0], np.cumsum(2 * lines.total + 1.0)[:-1]))
     g_arc = lines.arc[src] + np.where(again, lines.total[owner], 0.0) + gap[owner]
-    ext_first = np.r_[0, np.cumsum(ext)[:-1]]
+    ext_first = np.concatenate(([0], np.cumsum(ext)[:-1]))
     g0, g1 = s0 + gap[rpid], s1 + gap[rpid]
     first, last = ext_first[rpid], ext_first[rpid] + ext[rpid] - 1
     i0 = np.searchsorted(g_arc, g0 + VERTEX_TOLERANCE, side="right")
     i1 = np.maximum(np.searchsorted(g_arc, g1 - VERTEX_TOLERANCE, side="left"), i0)
     inner = i1 - i0
-    offsets = np.r_[0, np.cumsum(inner + 2)]
+    offsets = np.concatenate(([0], np.cumsum(inner + 2)))
     out = np.empty(offsets[-1], dtype=np.complex128)
     out[offsets[:-1]] = _points_at(vertex, g_arc, g0, np.searchsorted(g_arc, g0, side="right"), first, last)
     out[offsets[1:] - 1] = _points_at(vertex, g_arc, g1, np.searchsorted(g_arc, g1, side="right"), first, last)
