@@ -84,10 +84,10 @@ def fmt(value: float, decimals: int) -> str:
 def _digit_tables(decimals: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Byte tables of number pieces, 0 where nothing is printed, and their printed lengths.
 
-    Returns ``full`` ``(1000, 3)``: the three digits of 0..999; ``lead`` ``(1000, 3)``:
-    the same without leading zeros (``0`` as "0", right-aligned) and ``lead_len``;
-    ``frac`` ``(10**decimals, decimals + 1)``: ``.`` and the decimals of
-    0..10**decimals - 1 without trailing zeros (nothing for 0) and ``frac_len``.
+    Returns ``full`` ``(3, 1000)``: the three digits of 0..999 (a column each);
+    ``lead`` ``(3, 1000)``: the same without leading zeros (``0`` as "0", right-aligned)
+    and ``lead_len``; ``frac`` ``(decimals + 1, 10**decimals)``: ``.`` and the decimals
+    of 0..10**decimals - 1 without trailing zeros (nothing for 0) and ``frac_len``.
     """
     v = np.arange(1000)
     digits = np.stack([v // 100, v // 10 % 10, v % 10], axis=1)
@@ -99,15 +99,16 @@ def _digit_tables(decimals: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
     frac = np.zeros((f.size, decimals + 1), dtype=np.uint8)
     frac[:, 1:] = np.where(f[:, None] % (10 * power) != 0, f[:, None] // power % 10 + 48, 0)
     frac[:, 0] = np.where(f != 0, 46, 0)
-    return full, lead, np.count_nonzero(lead, axis=1), frac, np.count_nonzero(frac, axis=1)
+    return (np.ascontiguousarray(full.T), np.ascontiguousarray(lead.T), np.count_nonzero(lead, axis=1),
+            np.ascontiguousarray(frac.T), np.count_nonzero(frac, axis=1))
 
 
-def _number_block(values: np.ndarray, decimals: int) -> tuple[np.ndarray, np.ndarray]:
-    """ASCII bytes of ``values`` with at most ``decimals`` decimals, one row per value,
-    and the number of printed bytes of each row.
+def _number_block(values: np.ndarray, decimals: int) -> tuple[list[np.ndarray], np.ndarray]:
+    """ASCII bytes of ``values`` with at most ``decimals`` decimals, one column per value,
+    as blocks of rows to be stacked, and the number of printed bytes of each value.
 
-    The ``(n, w)`` uint8 columns are sign, integer digits (most significant first), point
-    and decimals; bytes that are not printed (leading zeros, trailing zeros of the
+    The ``(w_i, n)`` uint8 blocks are sign, integer digits (most significant first) three
+    at a time, point and decimals; bytes that are not printed (leading zeros, trailing zeros of the
     fraction, the point of whole numbers, the sign of non-negative values) are 0 and
     removed by the caller. Digits come from lookup tables, three integer digits at a time.
     """
@@ -118,26 +119,26 @@ def _number_block(values: np.ndarray, decimals: int) -> tuple[np.ndarray, np.nda
     if top >= 10**INT_DIGITS:
         raise ValueError(f"cannot write a G-code number of more than {INT_DIGITS} integer digits")
     negative = (values < 0) & (q != 0)
-    blocks = [np.where(negative, np.uint8(45), np.uint8(0))[:, None]]
+    blocks = [np.where(negative, np.uint8(45), np.uint8(0))[None]]
     lengths = negative + np.take(frac_len, part)
     groups = 1
     while 1000**groups <= top:
         groups += 1
     for k in range(groups - 1, -1, -1):
         group = whole // 1000**k % 1000
-        shown = np.take(lead, group, axis=0)
+        shown = np.take(lead, group, axis=1)
         size = np.take(lead_len, group)
         if k:
             size[whole < 1000**k] = 0  # a leading group of zeros
-            shown[whole < 1000**k] = 0
+            shown[:, whole < 1000**k] = 0
         higher = whole >= 1000 ** (k + 1)
         if higher.any():
-            shown[higher] = np.take(full, group[higher], axis=0)
+            shown[:, higher] = np.take(full, group[higher], axis=1)
             size[higher] = 3
         blocks.append(shown)
         lengths += size
-    blocks.append(np.take(frac, part, axis=0))
-    return np.concatenate(blocks, axis=1), lengths
+    blocks.append(np.take(frac, part, axis=1))
+    return blocks, lengths
 
 
 def format_lines(fields: list[tuple[str, np.ndarray, int]], suffix: str = "\n") -> tuple[str, np.ndarray]:
@@ -159,14 +160,14 @@ def format_lines(fields: list[tuple[str, np.ndarray, int]], suffix: str = "\n") 
     lengths = np.full(n, len(suffix), dtype=np.int64)
     for text, values, decimals in fields:
         number, size = _number_block(values, decimals)
-        blocks += [_literal(text, n), number]
+        blocks += [_literal(text, n), *number]
         lengths += len(text) + size
     blocks.append(_literal(suffix, n))
-    columns = np.empty((sum(b.shape[1] for b in blocks), n), dtype=np.uint8)  # filled column-major: faster
+    columns = np.empty((sum(len(b) for b in blocks), n), dtype=np.uint8)  # filled column-major: faster
     start = 0
     for block in blocks:
-        columns[start : start + block.shape[1]] = block.T
-        start += block.shape[1]
+        columns[start : start + len(block)] = block
+        start += len(block)
     matrix = columns.T
     offsets = np.zeros(n + 1, dtype=np.int64)
     np.cumsum(lengths, out=offsets[1:])
@@ -174,8 +175,8 @@ def format_lines(fields: list[tuple[str, np.ndarray, int]], suffix: str = "\n") 
 
 
 def _literal(text: str, n: int) -> np.ndarray:
-    """The bytes of ``text`` repeated on ``n`` rows, ``(n, len(text))`` uint8."""
-    return np.broadcast_to(np.frombuffer(text.encode("ascii"), dtype=np.uint8), (n, len(text)))
+    """The bytes of ``text`` repeated in ``n`` columns, ``(len(text), n)`` uint8."""
+    return np.broadcast_to(np.frombuffer(text.encode("ascii"), dtype=np.uint8)[:, None], (len(text), n))
 
 
 def format_moves(x: np.ndarray, y: np.ndarray, e: np.ndarray) -> tuple[str, np.ndarray]:
