@@ -136,3 +136,27 @@ def test_numbers_short_and_long_read_as_float_does():
     n = len(texts)
     assert program.end[:n, 0].tolist() == [float(t) for t in texts]
     assert [f.line for f in program.faults] == [n + 2, n + 3, n + 4]
+
+
+def test_plain_and_other_move_lines_read_alike():
+    """Moves in the plain shape and the same moves written otherwise (comment, tab, lower
+    case, extra blanks, long numbers, a word the reader ignores) give the same program."""
+    rng = np.random.default_rng(5)
+    xy = rng.uniform(0, 200, (400, 2)).round(3)
+    e = rng.uniform(0, 0.2, 400).round(5)
+    plain = "".join(f"G1 X{x:g} Y{y:g} E{v:g}\n" for (x, y), v in zip(xy, e))
+    other = "".join(
+        [f"G1 X{x:g} Y{y:g} E{v:g} ;c\n", f"G1\tX{x:g} Y{y:g} E{v:g}\n", f"g1 x{x:g} y{y:g} e{v:g}\n",
+         f"G1  X{x:g} Y{y:g}  E{v:g}\n", f"G1 X{x:.7f} Y{y:g} E{v:.9f}\n", f"G1 X{x:g} S1 Y{y:g} E{v:g}\n"][i % 6]
+        for i, ((x, y), v) in enumerate(zip(xy, e))
+    )
+    a, b = read_gcode(("M83\n" + plain).encode()), read_gcode(("M83\n" + other).encode())
+    np.testing.assert_allclose(b.end, a.end, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(b.e, a.e, rtol=0, atol=1e-12)
+    assert len(a.e) == 400 and not a.faults and not b.faults
+
+
+def test_tool_and_state_numbers_in_other_digits_are_not_tool_changes():
+    program = read_gcode("G1 X1 Y1\nT\u00b9\n;STATE:\u00b9 x\n;LAYER:\u00b2\nT2\n".encode())
+    assert [ev.values["T"] for ev in program.tools] == [2.0]
+    assert program.unknown_lines.tolist() == [2]

@@ -320,6 +320,6 @@ def _build_time() -> datetime | None:
     """The time stamp for the G-code's first line: ``SOURCE_DATE_EPOCH`` when set (for
     reproducible output), else None (the writer uses the current time)."""
     epoch = os.environ.get("SOURCE_DATE_EPOCH", "").strip()
-    return datetime.fromtimestamp(int(epoch), tz=timezone.utc) if epoch.isdigit() else None
+    return datetime.fromtimestamp(int(epoch), tz=timezone.utc) if epoch.isdecimal() else None
 
 

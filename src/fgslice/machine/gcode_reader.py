@@ -347,12 +347,12 @@ class _Events:
                 self.faults.append(Fault(num, f"';Z:' value '{raw[3:].strip()}' is not a number"))
         elif raw.startswith(";STATE:"):
             head = raw[7:].split(maxsplit=1)
-            if head and head[0].lstrip("-").isdigit():
+            if head and head[0].lstrip("-").isdecimal():
                 self.color = int(head[0])
                 self.state = self._state()
         elif raw.startswith(";LAYER:"):
             value = raw[7:].strip()
-            if value.lstrip("-").isdigit():
+            if value.lstrip("-").isdecimal():
                 self.layer = int(value)
 
     def command(self, raw: str, num: int) -> None:
@@ -362,7 +362,7 @@ class _Events:
             return
         cmd = words[0].upper()
         p = self._params(words, num)
-        if cmd[0] == "T" and cmd[1:].isdigit():
+        if cmd[0] == "T" and cmd[1:].isdecimal():
             self.tool = int(cmd[1:])
             self.tools.append(ValueEvent(num, "T", {"T": float(self.tool)}))
             self.state = self._state()
