@@ -203,6 +203,17 @@ _MERGE_DIGITS = 8
 _HASH = np.array([0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9], dtype=np.uint64)
 
 
+def _sorted_groups(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Equal keys grouped by one argsort: the sorting order, a mask over the sorted keys
+    marking each group's first, and each key's group index (groups numbered in key order)."""
+    order = np.argsort(keys)
+    sorted_keys = keys[order]
+    new = np.concatenate(([True], sorted_keys[1:] != sorted_keys[:-1]))
+    inverse = np.empty(len(keys), dtype=np.int64)
+    inverse[order] = np.cumsum(new) - 1
+    return order, new, inverse
+
+
 def _merge_vertices(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Coincident vertices merged: the kept vertices and, for each input row, its kept index.
 
@@ -213,11 +224,7 @@ def _merge_vertices(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     q = np.round(vertices * 10.0**_MERGE_DIGITS).astype(np.int64)
     with np.errstate(over="ignore"):
         key = q.view(np.uint64) @ _HASH
-    order = np.argsort(key)
-    sorted_key = key[order]
-    new = np.r_[True, sorted_key[1:] != sorted_key[:-1]]
-    inverse = np.empty(len(vertices), dtype=np.int64)
-    inverse[order] = np.cumsum(new) - 1
+    order, new, inverse = _sorted_groups(key)
     first = order[new]
     if not np.array_equal(np.take(np.take(q, first, axis=0), inverse, axis=0), q):
         _, first, inverse = np.unique(q, axis=0, return_index=True, return_inverse=True)
@@ -331,12 +338,8 @@ def _unique_edges(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.nd
     """
     following = np.roll(faces, -1, axis=1)
     keys = (np.minimum(faces, following) * np.int64(n_vertices) + np.maximum(faces, following)).ravel()
-    order = np.argsort(keys)
-    sorted_keys = keys[order]
-    new = np.r_[True, sorted_keys[1:] != sorted_keys[:-1]]
-    inverse = np.empty(len(keys), dtype=np.int64)
-    inverse[order] = np.cumsum(new) - 1
-    unique = sorted_keys[new]
+    order, new, inverse = _sorted_groups(keys)
+    unique = keys[order[new]]
     return np.column_stack([unique // n_vertices, unique % n_vertices]), inverse.reshape(-1, 3)
 
 

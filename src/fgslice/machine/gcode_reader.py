@@ -430,12 +430,10 @@ def _first_byte(v: np.ndarray) -> np.ndarray:
     return lo + np.where(lo == 8, hi, 0)
 
 
-def _parse_chunk(padded: np.ndarray, words: np.ndarray, begin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_parse_numbers` on one chunk; ``words[i]`` is the little-endian uint64 at byte ``i``."""
-    raw = np.empty((len(begin), 2), dtype=np.uint64)
-    raw[:, 0] = words[begin]
-    raw[:, 1] = words[begin + 8]
-    chars = raw.view(np.uint8)
+def _classify(chars: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Per-byte classes of number candidates ``(n, w)`` (uint8, one number per row):
+    digit values, digit mask, point mask, first byte, leading sign, and the bytes that
+    end a number (anything else, the leading sign excepted)."""
     digits = chars - np.uint8(48)
     is_digit = digits < 10
     is_point = chars == 46
@@ -443,6 +441,16 @@ def _parse_chunk(padded: np.ndarray, words: np.ndarray, begin: np.ndarray) -> tu
     signed = (c0 == 45) | (c0 == 43)
     foreign = ~(is_digit | is_point)
     foreign[:, 0] &= ~signed
+    return digits, is_digit, is_point, c0, signed, foreign
+
+
+def _parse_chunk(padded: np.ndarray, words: np.ndarray, begin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_parse_numbers` on one chunk; ``words[i]`` is the little-endian uint64 at byte ``i``."""
+    raw = np.empty((len(begin), 2), dtype=np.uint64)
+    raw[:, 0] = words[begin]
+    raw[:, 1] = words[begin + 8]
+    chars = raw.view(np.uint8)
+    digits, is_digit, is_point, c0, signed, foreign = _classify(chars)
     length = _first_byte(foreign.view(np.uint64))
     points = is_point.view(np.uint64)
     point = np.minimum(_first_byte(points), length)
@@ -476,13 +484,7 @@ def _parse_short(padded: np.ndarray, words: np.ndarray,
     rounded value."""
     word = words[begin]
     chars = word.view(np.uint8).reshape(-1, 8)
-    digits = chars - np.uint8(48)
-    is_digit = digits < 10
-    is_point = chars == 46
-    c0 = chars[:, 0]
-    signed = (c0 == 45) | (c0 == 43)
-    foreign = ~(is_digit | is_point)
-    foreign[:, 0] &= ~signed
+    digits, is_digit, is_point, c0, signed, foreign = _classify(chars)
     length = _first_byte_word(foreign.view(np.uint64)[:, 0])
     longer = length == 8
     length[longer] = 7
