@@ -4,6 +4,7 @@ import copy
 import pickle
 
 import numpy as np
+from conftest import same_steps
 
 from fgslice.planning.plan import LayerPlan, Prepared, SetState
 from fgslice.toolpaths.paths import Path, Role
@@ -20,18 +21,6 @@ def sample_plan(n=50):
                           group=k // 10 if k % 3 else -1))
     steps.append(SetState(3))
     return LayerPlan(4, 1.0, 0.2, steps)
-
-
-def same_steps(a, b):
-    assert len(a.steps) == len(b.steps)
-    for x, y in zip(a.steps, b.steps):
-        assert type(x) is type(y)
-        if isinstance(x, SetState):
-            assert x == y
-        else:
-            assert np.array_equal(x.points, y.points) and x.points.shape == y.points.shape
-            assert (x.role, x.color, x.width, x.height, x.closed, x.group) == (
-                y.role, y.color, y.width, y.height, y.closed, y.group)
 
 
 def test_pickle_round_trip_keeps_every_step():

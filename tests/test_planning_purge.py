@@ -6,6 +6,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 import shapely
+from conftest import same_steps
 
 from fgslice.errors import SettingsError, SliceError
 from fgslice.planning.order import order_layer
@@ -95,13 +96,7 @@ def test_plans_received_as_columns_get_the_same_tower_without_building_their_pat
     assert packed_stats.extruded_mm3 == pytest.approx(plain_stats.extruded_mm3, rel=1e-12)
     assert (packed_stats.changes, packed_stats.purge_mm3) == (plain_stats.changes, plain_stats.purge_mm3)
     for a, b in zip(plain, packed):
-        assert len(a.steps) == len(b.steps)
-        for x, y in zip(a.steps, b.steps):
-            assert type(x) is type(y)
-            if isinstance(x, SetState):
-                assert x == y
-            else:
-                assert np.array_equal(x.points, y.points) and (x.role, x.color, x.closed) == (y.role, y.color, y.closed)
+        same_steps(a, b)
 
 
 def test_tower_is_on_the_bed_clear_of_the_part_and_printed_on_every_layer():
