@@ -84,3 +84,23 @@ def test_dogbone_skins_and_walls(tmp_path):
     assert set(layers[sparse]) == {2, 3, 4, 5}
     external = roles[part] == "External perimeter"
     assert set(layers[external]) == set(range(8))
+
+
+@pytest.mark.parametrize("colors", [3, 48])
+def test_purge_tower_bound_is_the_largest_color_count_of_any_layer(tmp_path, colors):
+    """The tower is sized by the most colors any layer spans: the shortcut through the
+    widest layer (capped at 3 colors) and the full pass (48 colors) give that maximum."""
+    from fgslice.pipeline import SliceJob, _colors_in_outline, _max_colors_per_layer, _section_task
+    from fgslice.slicing.plan_layers import layer_heights, place_design
+
+    path = tmp_path / "ball.vcad"
+    path.write_text('fgrade(["(x+60)/120", "1-(x+60)/120"], ["blue", "yellow"]) { translate(0, 0, 10) { sphere(10); } }\n')
+    design = load_design(path)
+    settings = load_settings(None, {"strategy": "1", "colors": str(colors)})
+    job = SliceJob(design, settings, Palette(2, colors), place_design(design, settings), layer_heights(design, settings),
+                   np.zeros(2))
+    job.outlines = [_section_task(job, i) for i in range(len(job.layers))]
+    each = [_colors_in_outline(job, i) for i in range(len(job.layers))]
+    assert len(set(each)) > 1 or colors == 3
+    assert _max_colors_per_layer(job, 1, None) == max(each)
+    assert (max(each) == colors) == (colors == 3)

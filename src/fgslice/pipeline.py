@@ -149,8 +149,18 @@ def _part_footprint(job: SliceJob) -> shapely.Geometry:
 
 
 def _max_colors_per_layer(job: SliceJob, jobs: int, scheduler: str | None) -> int:
-    """An upper bound of the colors a layer holds (sizes the purge tower)."""
+    """An upper bound of the colors a layer holds (sizes the purge tower).
+
+    The bound cannot exceed the palette size, so the layer of largest outline area
+    (likeliest to span the most colors) is tried first: when it reaches the palette size,
+    the other layers need no sampling.
+    """
     if job.palette.n_materials != 2:
+        return job.palette.size
+    if not job.layers:
+        return 1
+    widest = int(np.argmax(shapely.area(job.outlines)))
+    if _colors_in_outline(job, widest) >= job.palette.size:
         return job.palette.size
     return max(map_ordered(_colors_in_outline, job, range(len(job.layers)), jobs=jobs, scheduler=scheduler), default=1)
 
