@@ -23,7 +23,10 @@ of every row.
 ``--profile`` instead slices each selected row in one process under cProfile and prints
 its top functions by own time (where the time goes).
 
-Run: ``.venv/bin/python benchmarks/run_all.py [--rows vase,benchy,...] [--jobs N] [--quick] [--profile]``.
+``--repeat N`` runs every command N times and reports the run of median wall time (its
+CPU time and peak memory with it): on a shared machine one run can be 30 % off.
+
+Run: ``.venv/bin/python benchmarks/run_all.py [--rows vase,benchy,...] [--jobs N] [--repeat N] [--quick] [--profile]``.
 Row names: see ``--list``.
 """
 
@@ -149,20 +152,38 @@ def fgslice_cmd(design: Path, args: tuple[str, ...], out: Path, jobs: int) -> li
             "--stats", str(out.with_suffix(".json")), "--jobs", str(jobs), *args]
 
 
-def run_fgslice(design: Path, args: tuple[str, ...], out: Path, jobs: int) -> tuple[Run, dict]:
-    """Slice one row; returns the measurements and the statistics JSON (empty on failure)."""
-    run = measure(fgslice_cmd(design, args, out, jobs), ROOT)
+def median_run(runs: list[tuple[Run, dict]]) -> tuple[Run, dict]:
+    """The run of median wall time (the lower middle one of an even count); the first
+    failed run if any failed."""
+    failed = [r for r in runs if r[0].returncode != 0]
+    if failed:
+        return failed[0]
+    return sorted(runs, key=lambda r: r[0].wall_s)[(len(runs) - 1) // 2]
+
+
+def measure_median(cmd: list[str], cwd: Path, repeat: int) -> Run:
+    """:func:`measure` ``repeat`` times; the run of median wall time."""
+    return median_run([(measure(cmd, cwd), {}) for _ in range(repeat)])[0]
+
+
+def run_fgslice(design: Path, args: tuple[str, ...], out: Path, jobs: int, repeat: int = 1) -> tuple[Run, dict]:
+    """Slice one row ``repeat`` times; returns the measurements and the statistics JSON
+    (empty on failure) of the run of median wall time."""
+    runs = []
     stats_path = out.with_suffix(".json")
-    stats = json.loads(stats_path.read_text()) if run.returncode == 0 and stats_path.exists() else {}
-    return run, stats
+    for _ in range(repeat):
+        run = measure(fgslice_cmd(design, args, out, jobs), ROOT)
+        stats = json.loads(stats_path.read_text()) if run.returncode == 0 and stats_path.exists() else {}
+        runs.append((run, stats))
+    return median_run(runs)
 
 
-def print_table(rows: list[Row], jobs: int, workdir: Path) -> None:
+def print_table(rows: list[Row], jobs: int, workdir: Path, repeat: int) -> None:
     head = (f"{'row':20s} {'layers':>6s} {'colors':>6s} {'wall s':>8s} {'cpu s':>8s} {'slice s':>8s} "
             f"{'peak MB':>8s} {'paper s':>8s} {'/paper':>8s} {'target s':>8s} {'/target':>8s} {'cpu/tgt':>8s}")
-    print(f"fgslice, --jobs {jobs}\n{head}\n{'-' * len(head)}")
+    print(f"fgslice, --jobs {jobs}{_median_note(repeat)}\n{head}\n{'-' * len(head)}")
     for row in rows:
-        run, stats = run_fgslice(row.design, row.args, workdir / f"{row.name}.gcode", jobs)
+        run, stats = run_fgslice(row.design, row.args, workdir / f"{row.name}.gcode", jobs, repeat)
         if run.returncode != 0:
             print(f"{row.name:20s} failed (exit {run.returncode}): {run.stderr.strip().splitlines()[-1:]}")
             continue
@@ -192,17 +213,21 @@ def print_profiles(rows: list[Row], workdir: Path, top: int) -> None:
             print(f"  {tottime:7.2f} s {100 * tottime / total:5.1f}%  cum {cumtime:7.2f} s  {calls:>9d} calls  {func} ({where})")
 
 
-def print_speedup(workdir: Path) -> None:
+def print_speedup(workdir: Path, repeat: int) -> None:
     """Vase with 1 and 2 worker processes."""
     vase = ROWS[0]
-    one, _ = run_fgslice(vase.design, vase.args, workdir / "vase_j1.gcode", 1)
-    two, _ = run_fgslice(vase.design, vase.args, workdir / "vase_j2.gcode", 2)
+    one, _ = run_fgslice(vase.design, vase.args, workdir / "vase_j1.gcode", 1, repeat)
+    two, _ = run_fgslice(vase.design, vase.args, workdir / "vase_j2.gcode", 2, repeat)
     if one.returncode or two.returncode:
         print(f"\nspeed-up: vase failed ({one.stderr or two.stderr})")
         return
-    print(f"\nvase --jobs 1: wall {one.wall_s:.2f} s, cpu {one.cpu_s:.2f} s, peak {one.peak_mb:.0f} MB; --jobs 2: "
+    print(f"\nvase{_median_note(repeat)} --jobs 1: wall {one.wall_s:.2f} s, cpu {one.cpu_s:.2f} s, peak {one.peak_mb:.0f} MB; --jobs 2: "
           f"wall {two.wall_s:.2f} s, cpu {two.cpu_s:.2f} s, peak {two.peak_mb:.0f} MB; "
           f"speed-up {one.wall_s / two.wall_s:.2f} (target >= {SPEEDUP_TARGET})")
+
+
+def _median_note(repeat: int) -> str:
+    return f", median of {repeat} runs" if repeat > 1 else ""
 
 
 def cura_definition() -> Path | None:
@@ -246,17 +271,17 @@ def comparison_commands(stl: Path, workdir: Path, jobs: int) -> dict[str, list[s
     return commands
 
 
-def print_comparison(workdir: Path, jobs: int) -> None:
+def print_comparison(workdir: Path, jobs: int, repeat: int) -> None:
     if not BENCHY_STL.exists():
         print(f"\ncomparison skipped: {BENCHY_STL} not found")
         return
-    print("\nsingle-material 3DBenchy (0.2 mm, 2 walls, 15 % infill)")
+    print(f"\nsingle-material 3DBenchy (0.2 mm, 2 walls, 15 % infill){_median_note(repeat)}")
     runs: dict[str, Run] = {}
     for name, cmd in comparison_commands(BENCHY_STL, workdir, jobs).items():
         if isinstance(cmd, str):
             print(f"  {name:13s} skipped: {cmd}")
             continue
-        run = measure(cmd, workdir)
+        run = measure_median(cmd, workdir, repeat)
         if run.returncode != 0:
             print(f"  {name:13s} failed (exit {run.returncode}): {run.stderr.strip().splitlines()[-1:]}")
             continue
@@ -274,8 +299,12 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--profile", action="store_true", help="profile the selected rows instead of timing them")
     parser.add_argument("--top", type=int, default=5, help="functions per row with --profile")
     parser.add_argument("--list", action="store_true", help="print the row names and exit")
+    parser.add_argument("--repeat", type=int, default=1,
+                        help="run each command this many times and report the run of median wall time")
     parser.add_argument("--keep", type=Path, help="write G-code and statistics here instead of a temporary folder")
     args = parser.parse_args(argv)
+    if args.repeat < 1:
+        parser.error(f"--repeat must be at least 1, not {args.repeat}")
     names = [r.name for r in ROWS] + list(EXTRA)
     if args.list:
         print("\n".join(names))
@@ -300,11 +329,11 @@ def main(argv: list[str] | None = None) -> None:
             print_profiles(rows, workdir, args.top)
             return
         if rows:
-            print_table(rows, args.jobs, workdir)
+            print_table(rows, args.jobs, workdir, args.repeat)
         if "speedup" in wanted:
-            print_speedup(workdir)
+            print_speedup(workdir, args.repeat)
         if "compare" in wanted:
-            print_comparison(workdir, args.jobs)
+            print_comparison(workdir, args.jobs, args.repeat)
 
 
 if __name__ == "__main__":
