@@ -92,14 +92,37 @@ def test_every_move_stays_on_the_bed(tmp_path):
     assert part.area > 40 * 20
 
 
-def test_parallel_output_is_byte_identical(tmp_path, monkeypatch):
+@pytest.mark.parametrize("strategy", ["1", "2"])
+def test_parallel_output_is_byte_identical(tmp_path, monkeypatch, strategy):
+    """With workers the thumbnails are rendered in a process of their own: the file,
+    thumbnails included, is the same as with one process."""
+    from fgslice.preview.thumbnails import render_thumbnails
+
     monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000000")
     design = api.design(GRADIENT_X)
-    settings = load_settings(None, {"colors": "4", "strategy": "1", "walls": "2"})
+    settings = load_settings(None, {"colors": "4", "strategy": strategy, "walls": "2", "thumbnails": "16x16,60x40"})
     one, two = tmp_path / "one.gcode", tmp_path / "two.gcode"
-    slice_to_gcode(design, settings, one, jobs=1)
-    slice_to_gcode(design, settings, two, jobs=2)
+    slice_to_gcode(design, settings, one, jobs=1, thumbnails=tuple(render_thumbnails(design, settings)))
+    slice_to_gcode(design, settings, two, jobs=2, thumbnails=lambda: render_thumbnails(design, settings))
+    assert b"; thumbnail begin 60x40" in two.read_bytes()
     assert one.read_bytes() == two.read_bytes()
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_failing_thumbnails_stop_the_slice_and_write_nothing(tmp_path, jobs):
+    """An error while rendering thumbnails (in its own process with workers) reaches the
+    caller as itself, and no file is left behind."""
+    from fgslice.errors import FieldError
+
+    def render():
+        raise FieldError("the field is NaN at (1, 2, 3)", hint="check the expression")
+
+    design = api.design(GRADIENT_X)
+    settings = load_settings(None, {"colors": "2"})
+    out = tmp_path / "part.gcode"
+    with pytest.raises(FieldError, match="NaN at"):
+        slice_to_gcode(design, settings, out, jobs=jobs, thumbnails=render)
+    assert not list(tmp_path.iterdir())
 
 
 @pytest.mark.parametrize(

@@ -77,7 +77,7 @@ def slice_command(design, output, profile, strategy, colors, layer_height, sets,
     from fgslice.design import load_design
     from fgslice.output import check_writable
     from fgslice.pipeline import slice_to_gcode
-    from fgslice.preview.thumbnails import render_thumbnails
+    from fgslice.preview.thumbnails import parse_sizes, render_thumbnails
 
     output = output or design.with_suffix(".gcode")
     settings = _settings(profile, sets, {"strategy": strategy, "colors": colors, "layer_height": layer_height})
@@ -87,10 +87,11 @@ def slice_command(design, output, profile, strategy, colors, layer_height, sets,
             check_writable(extra, inputs=(design, output))
     loaded = load_design(design, materials)
     comments = {"design": str(design), "command": "fgslice " + " ".join(sys.argv[1:])}
-    thumbnails = tuple(render_thumbnails(loaded, settings))
+    sizes = parse_sizes(settings.thumbnails)
     with _progress("slicing") as progress:
         result = slice_to_gcode(
-            loaded, settings, output, jobs=jobs, scheduler=scheduler, comments=comments, thumbnails=thumbnails,
+            loaded, settings, output, jobs=jobs, scheduler=scheduler, comments=comments,
+            thumbnails=lambda: render_thumbnails(loaded, settings, sizes),
             progress=progress,
         )
     s = result.stats

@@ -11,7 +11,8 @@ Stages (one module each; this file only wires them):
    layer gets its neighbours' outlines for top and bottom skins;
 3. serially, streaming: purge towers (``planning.purge``), look-ahead of state changes
    (``planning.lookahead``), the G-code writer (``machine.gcode``), which adds travels,
-   retractions, annotations and state changes around the prepared moves;
+   retractions, annotations and state changes around the prepared moves (with workers,
+   the header's thumbnails are rendered meanwhile by a process of their own);
 4. the written file is verified (``machine.verify``) before it replaces the output; with
    worker processes, by one more process that reads the file while it is written.
 
@@ -22,10 +23,11 @@ only on the design, the settings and the layer index.
 from __future__ import annotations
 
 import contextlib
+import itertools
 import os
 import time
 from datetime import datetime, timezone
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path as FilePath
 
@@ -54,6 +56,9 @@ from fgslice.toolpaths import strategy1, strategy2
 from fgslice.toolpaths.paths import Path, Role
 from fgslice.toolpaths.skirt import skirt_paths
 
+
+Thumbnails = Sequence[tuple[bytes, int, int]]
+"""PNG thumbnails as ``(png bytes, width, height)``, pixels."""
 
 COLOR_SAMPLE_MM = 2.0
 """Grid step of the field samples that bound how many colors a layer holds, mm."""
@@ -201,7 +206,7 @@ def slice_to_gcode(
     jobs: int | None = None,
     scheduler: str | None = None,
     comments: dict[str, str] | None = None,
-    thumbnails: tuple[tuple[bytes, int, int], ...] = (),
+    thumbnails: Thumbnails | Callable[[], Thumbnails] = (),
     progress: Callable[[int, int], None] | None = None,
     verify: bool = True,
 ) -> SliceResult:
@@ -214,7 +219,9 @@ def slice_to_gcode(
         jobs: worker processes for per-layer stages (default: all cores).
         scheduler: a Dask scheduler address to run per-layer stages on instead.
         comments: extra ``; key = value`` header lines.
-        thumbnails: PNG thumbnails ``(png, width, height)`` to embed.
+        thumbnails: PNG thumbnails ``(png, width, height)`` to embed, or a function that
+            renders them: with workers it runs in a process of its own alongside the first
+            layers (serial work the other cores would wait for), else here, first.
         progress: called as ``progress(done_layers, total_layers)``.
         verify: check the written file against the machine's limits before keeping it.
 
@@ -235,54 +242,59 @@ def slice_to_gcode(
     bed_center = np.array([settings.bed_x / 2, settings.bed_y / 2])
     job = SliceJob(design, settings, palette, placement, layers, bed_center)
 
-    tower = None
-    if settings.strategy == 1:
-        job.outlines = list(map_ordered(_section_task, job, range(len(layers)), jobs=jobs, scheduler=scheduler))
-        if settings.purge and palette.size > 1:
-            changes = _max_colors_per_layer(job, jobs, scheduler)
-            tower = PurgeTower.plan(_part_footprint(job), settings, max(changes, 1), len(layers))
-            job.start_xy = np.array([(tower.x0 + tower.x1) / 2, (tower.y0 + tower.y1) / 2])
-
-    short_records: list[strategy1.ShortPieces] = []
-    uncovered = [0.0]
-    total = len(layers)
-
-    def plans():
-        for done, result in enumerate(map_ordered(_layer_task, job, range(total), jobs=jobs, scheduler=scheduler), 1):
-            if result.short_pieces:
-                short_records.append(result.short_pieces)
-            uncovered[0] += result.uncovered_mm2
-            if progress:
-                progress(done, total)
-            yield result.plan
-
-    purge_stats = PurgeStats()
-    stream = insert_purges(plans(), tower, settings, palette, purge_stats) if tower else plans()
-    if settings.dialect == "temperature" and settings.temperature_lead_s > 0:
-        stream = apply_time_lead(stream, settings.temperature_lead_s, _speed_of(settings))
-    elif settings.lookahead_distance > 0:
-        stream = apply_lookahead(stream, settings.lookahead_distance)
-
-    header = {
-        "placement_offset": ",".join(f"{v:.4f}" for v in placement.offset),
-        "materials": ",".join(m.name for m in design.materials),
-        **(comments or {}),
-    }
-    # with workers, a process verifies the file while it is written; forked before the
-    # output is opened, it holds none of its buffers
-    follower = Consumer(_verify_written, settings) if verify and (jobs > 1 or scheduler) else None
     with contextlib.ExitStack() as cleanup:
+        if callable(thumbnails):
+            thumbnails = _start_thumbnails(thumbnails, cleanup) if jobs > 1 or scheduler else tuple(thumbnails())
+        tower = None
+        if settings.strategy == 1:
+            job.outlines = list(map_ordered(_section_task, job, range(len(layers)), jobs=jobs, scheduler=scheduler))
+            if settings.purge and palette.size > 1:
+                changes = _max_colors_per_layer(job, jobs, scheduler)
+                tower = PurgeTower.plan(_part_footprint(job), settings, max(changes, 1), len(layers))
+                job.start_xy = np.array([(tower.x0 + tower.x1) / 2, (tower.y0 + tower.y1) / 2])
+
+        short_records: list[strategy1.ShortPieces] = []
+        uncovered = [0.0]
+        total = len(layers)
+
+        def plans():
+            for done, result in enumerate(map_ordered(_layer_task, job, range(total), jobs=jobs, scheduler=scheduler), 1):
+                if result.short_pieces:
+                    short_records.append(result.short_pieces)
+                uncovered[0] += result.uncovered_mm2
+                if progress:
+                    progress(done, total)
+                yield result.plan
+
+        purge_stats = PurgeStats()
+        stream = insert_purges(plans(), tower, settings, palette, purge_stats) if tower else plans()
+        if settings.dialect == "temperature" and settings.temperature_lead_s > 0:
+            stream = apply_time_lead(stream, settings.temperature_lead_s, _speed_of(settings))
+        elif settings.lookahead_distance > 0:
+            stream = apply_lookahead(stream, settings.lookahead_distance)
+
+        header = {
+            "placement_offset": ",".join(f"{v:.4f}" for v in placement.offset),
+            "materials": ",".join(m.name for m in design.materials),
+            **(comments or {}),
+        }
+        # with workers, a process verifies the file while it is written; forked before the
+        # output is opened, it holds none of its buffers
+        follower = Consumer(_verify_written, settings) if verify and (jobs > 1 or scheduler) else None
         if follower:
             cleanup.enter_context(follower)
         handle = cleanup.enter_context(atomic_output(output))
         cleanup.callback(stream.close)  # on an error, stop the workers here and now
         if follower:
             follower.send(handle.name)
+        first = list(itertools.islice(stream, 1))  # the workers start before the header waits for thumbnails
+        if callable(thumbnails):
+            thumbnails = thumbnails()
         writer = GcodeWriter(
             handle, settings, palette, dialect, comments=header, thumbnails=thumbnails, now=_build_time()
         )
         writer.write_header()
-        for plan in stream:
+        for plan in itertools.chain(first, stream):
             writer.write_layer(plan)
             if follower:
                 handle.flush()
@@ -317,6 +329,17 @@ def slice_to_gcode(
         }
     )
     return SliceResult(output=FilePath(output), stats=stats)
+
+
+def _start_thumbnails(render: Callable[[], Thumbnails], cleanup: contextlib.ExitStack) -> Callable[[], tuple]:
+    """Run ``render`` in a forked process (closed by ``cleanup``); returns the function
+    that waits for its thumbnails (and raises what rendering raised)."""
+    return cleanup.enter_context(Consumer(_render_thumbnails, render)).result
+
+
+def _render_thumbnails(messages: Iterator, render: Callable[[], Thumbnails]) -> tuple:
+    """The thumbnail process: ``render()`` (``messages`` only ends the wait)."""
+    return tuple(render())
 
 
 def _verify_written(messages: Iterator, settings: Settings) -> list:
