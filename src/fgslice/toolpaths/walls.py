@@ -323,6 +323,15 @@ def _holes(geoms) -> np.ndarray:
     return np.bincount(src, shapely.get_num_interior_rings(parts), minlength=len(geoms))
 
 
+def _erode_more(half: np.ndarray, have: np.ndarray, loops: np.ndarray, outline, distances: np.ndarray) -> None:
+    """Fill ``half[k] = offset(outline, -distances[k])`` (in place) for the ``loops`` not
+    marked in ``have`` yet, in one vectorized offset, and mark them."""
+    need = loops[~have[loops]]
+    if len(need):
+        half[need] = offset(outline, -distances[need])
+        have[need] = True
+
+
 @dataclass(frozen=True)
 class Walls:
     """Result of :func:`make_walls`.
@@ -344,12 +353,14 @@ def make_walls(outline, count: int, width: float, height: float, *, outer_first:
 
     Loop ``k`` is the boundary of the outline (simplified to :data:`OUTLINE_TOLERANCE`)
     eroded by ``w / 2 + k s`` (``s`` from :func:`bead_spacing`), opened by ``s / 2`` so that no loop is printed around a
-    sliver narrower than the bead spacing (its two sides would overlap). All erosions
-    come from one vectorized offset (loop centers, the inner area and one more level);
-    where two consecutive levels have the same combinatorics and the outline has no
-    corner sharper than :data:`SHARPEST_EXACT_CORNER`, nothing thinner than a spacing
-    exists in between and the opening equals the erosion; elsewhere the opening is
-    computed (erosion by ``w / 2 + k s + s / 2``, dilation by ``s / 2``). Loop 0 of
+    sliver narrower than the bead spacing (its two sides would overlap). The loop
+    centers and the inner area (erosion by ``w / 2 + (count - 1) s + s / 2``) come from
+    one vectorized offset. Where a loop's erosion and the next level (the inner area for
+    the last loop), or failing that its erosion by ``s / 2`` more (one more vectorized
+    offset), have the same combinatorics and the outline has no corner sharper than
+    :data:`SHARPEST_EXACT_CORNER`, nothing thinner than a spacing exists in between and
+    the opening equals the erosion; elsewhere the opening is computed (that erosion by
+    ``w / 2 + k s + s / 2``, dilated by ``s / 2``). Loop 0 of
     each island and of each hole has role EXTERNAL_PERIMETER, the others PERIMETER.
     Every loop's ``group`` is the index of the outline island it lies in, so that
     planning prints one island's loops together in this order.
@@ -367,12 +378,21 @@ def make_walls(outline, count: int, width: float, height: float, *, outer_first:
     if count == 0 or outline.is_empty:
         return Walls([], offset(outline, -width / 2))
     dist = width / 2 + s * np.arange(count)
-    levels = _erosions(outline, np.append(dist, dist[-1] + np.array([s / 2, s])))
+    levels = _erosions(outline, np.append(dist, dist[-1] + s / 2))
     centers, inner = levels[:count], levels[count]
-    unchanged = _same_combinatorics(levels[:count], np.r_[levels[1:count], levels[count + 1]])
-    redo = np.flatnonzero(~unchanged if unchanged.any() and _mitres_exact(outline) else np.ones(count, dtype=bool))
-    if len(redo):
-        centers[redo] = offset(offset(outline, -(dist[redo] + s / 2)), s / 2)
+    # each loop's erosion by s / 2 more (the inner area for the last loop; others on demand)
+    half = np.empty(count, dtype=object)
+    half[-1] = inner
+    have = np.arange(count) == count - 1
+    unchanged = _same_combinatorics(centers, levels[1:])
+    check = np.flatnonzero(~unchanged[:-1])
+    _erode_more(half, have, check, outline, dist + s / 2)
+    unchanged[check] = _same_combinatorics(centers[check], half[check])
+    if not (unchanged.any() and _mitres_exact(outline)):
+        unchanged[:] = False
+    redo = np.flatnonzero(~unchanged)
+    _erode_more(half, have, redo, outline, dist + s / 2)
+    centers[redo] = offset(half[redo], s / 2)
     coords, ring_idx, loop = ring_groups(centers)
     roles = np.where(loop == 0, Role.EXTERNAL_PERIMETER, Role.PERIMETER)
     paths = split_rings(coords, ring_idx, roles, color, width, height, island_of(outline, coords, ring_idx))
