@@ -457,28 +457,30 @@ def dense_levels(regions, first: float, spacing: float, width: float, height: fl
         parts, owner = shapely.get_parts(regions, return_index=True)
         eroded = (offset_polygons(parts, -first)[0], owner)
     parts, src = shapely.get_parts(eroded[0], return_index=True)
-    parts, owner = _printable(parts, np.asarray(eroded[1])[src], width)
+    parts, owner, perimeter = _printable(parts, np.asarray(eroded[1])[src], width)
+    area = shapely.area(parts)
     geoms, owners, levels, widths = [], [], [], []
     rest, rest_owner = np.empty(0, dtype=object), np.empty(0, dtype=np.int64)
     level = 0
     while len(parts):
         grow = first if level == 0 else spacing / 2
-        area, perimeter = shapely.area(parts), shapely.length(parts)
         if max_levels is not None and level + 1 >= max_levels:
             rest, rest_owner = offset(parts, -spacing / 2), owner
             share = (area + grow * perimeter - shapely.area(rest)) / perimeter
             nxt, src = np.empty(0, dtype=object), np.empty(0, dtype=np.int64)
+            nxt_area = nxt_perimeter = np.empty(0)
         else:
             nxt, src = shapely.get_parts(offset(parts, -spacing), return_index=True)
-            nxt, src = _printable(nxt, src, width)
-            child_area = np.bincount(src, shapely.area(nxt), minlength=len(parts))
-            child_perimeter = np.bincount(src, shapely.length(nxt), minlength=len(parts))
+            nxt, src, nxt_perimeter = _printable(nxt, src, width)
+            nxt_area = shapely.area(nxt)
+            child_area = np.bincount(src, nxt_area, minlength=len(parts))
+            child_perimeter = np.bincount(src, nxt_perimeter, minlength=len(parts))
             share = (area + grow * perimeter - child_area - spacing / 2 * child_perimeter) / perimeter
         geoms.append(parts)
         owners.append(owner)
         levels.append(np.full(len(parts), level))
         widths.append(np.clip(share + trim, height, MAX_WIDTH_FACTOR * width))
-        parts, owner = nxt, owner[src]
+        parts, owner, area, perimeter = nxt, owner[src], nxt_area, nxt_perimeter
         level += 1
     if not geoms:
         empty = np.empty(0, int)
@@ -490,10 +492,12 @@ def dense_levels(regions, first: float, spacing: float, width: float, height: fl
     )
 
 
-def _printable(parts: np.ndarray, owner: np.ndarray, width: float) -> tuple[np.ndarray, np.ndarray]:
-    """The non-empty parts whose perimeter is at least two bead widths, and their owners."""
-    keep = ~shapely.is_empty(parts) & (shapely.length(parts) >= 2 * width)
-    return parts[keep], owner[keep]
+def _printable(parts: np.ndarray, owner: np.ndarray, width: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The non-empty parts whose perimeter is at least two bead widths, their owners and
+    their perimeters (mm)."""
+    perimeter = shapely.length(parts)
+    keep = ~shapely.is_empty(parts) & (perimeter >= 2 * width)
+    return parts[keep], owner[keep], perimeter[keep]
 
 
 def concentric(region, density: float, width: float, height: float, role: Role, *, color: int = 0) -> list[Path]:
