@@ -162,6 +162,7 @@ class _Layer:
         entry_xy: entries of the loose paths (complex, mm), path by path, in point order.
         entry_path: path index of each entry.
         entry_reverses: True for the last point of an open path (entering there reverses it).
+        entry_partner: the other entry of the same open path, -1 for a closed path's entries.
         entry_offsets: ``(n + 1,)`` path ``i`` owns entries ``entry_offsets[i]:entry_offsets[i + 1]``.
     """
 
@@ -208,6 +209,11 @@ class _Layer:
         self.entry_xy = xy[entry_vertex]
         self.entry_path = entry_path
         self.entry_reverses = (entry_vertex == last[entry_path]) & ~closed[entry_path]
+        # an open path's two entries are consecutive: each one's partner is the other
+        entry_index = np.arange(entry_vertex.size)
+        self.entry_partner = np.where(
+            closed[entry_path], -1, np.where(self.entry_reverses, entry_index - 1, entry_index + 1)
+        )
         self.entry_offsets = np.searchsorted(entry_path, np.arange(n + 1)).tolist()
 
     def enter_closed(self, i: int, at: complex) -> tuple[Path, complex]:
@@ -311,46 +317,82 @@ class _Chains:
 
 def _tour(layer: _Layer, a: int, b: int, x: float, y: float, out: list[Step]) -> tuple[float, float]:
     """Greedy nearest-entry tour of the loose paths ``a..b-1``; appends the oriented paths
-    to ``out`` and returns the final XY (mm)."""
+    to ``out`` and returns the final XY (mm).
+
+    The walk records which entry each path is entered at and orients the paths
+    afterwards. After an open path the nozzle stands on the path's other entry, whose
+    precomputed neighbour list (:class:`_GridSearch`) usually holds the next entry (the
+    first unprinted one in it); otherwise the search is asked (a live query)."""
     e0, e1 = layer.entry_offsets[a], layer.entry_offsets[b]
     search = (_GridSearch if b - a >= GRID_MIN_PATHS else _ScanSearch)(layer, e0, e1)
-    entry_path = layer.entry_path[e0:e1].tolist()
-    entry_reverses = layer.entry_reverses[e0:e1].tolist()
+    entry_path = layer.entry_path[e0:e1]
+    path_of = entry_path.tolist()
+    partner_of = np.where(layer.entry_partner[e0:e1] >= 0, layer.entry_partner[e0:e1] - e0, -1).tolist()
     entry_offsets = layer.entry_offsets
-    paths, start, end = layer.paths, layer.start, layer.end
+    neighbours, neighbour_offsets = search.neighbours, search.neighbour_offsets
+    printed = search.printed
+    rotated: list[tuple[int, Path]] = []
+    chosen_entries: list[int] = []
     at = complex(x, y)
     at_entry = -1
-    for _ in range(b - a):
-        chosen = search.nearest(at, at_entry)
-        i = entry_path[chosen]
-        search.remove(entry_offsets[i] - e0, entry_offsets[i + 1] - e0)
-        if layer.closed[i]:
-            path, at = layer.enter_closed(i, at)
-            at_entry = -1
-        elif entry_reverses[chosen]:
-            path, at = _moved(paths[i], paths[i].points[::-1]), start[i]
-            at_entry = chosen - 1
+    left = e1 - e0
+    for step in range(b - a):
+        chosen = -1
+        if at_entry >= 0:
+            for candidate in neighbours[neighbour_offsets[at_entry] : neighbour_offsets[at_entry + 1]]:
+                if not printed[candidate]:
+                    chosen = candidate
+                    break
+        if chosen < 0:
+            if at_entry >= 0:
+                at = complex(layer.entry_xy[e0 + at_entry])
+            chosen = search.nearest(at, left)
+        chosen_entries.append(chosen)
+        at_entry = partner_of[chosen]
+        if at_entry >= 0:
+            printed[chosen] = printed[at_entry] = 1
+            left -= 2
         else:
-            path, at = paths[i], end[i]
-            at_entry = chosen + 1
-        out.append(path)
+            i = path_of[chosen]
+            lo, hi = entry_offsets[i] - e0, entry_offsets[i + 1] - e0
+            printed[lo:hi] = b"\x01" * (hi - lo)
+            left -= hi - lo
+            path, at = layer.enter_closed(i, at)
+            rotated.append((step, path))
+    chosen = np.array(chosen_entries, dtype=np.int64)
+    paths = layer.paths
+    steps = [paths[i] for i in entry_path[chosen].tolist()]
+    for k in np.flatnonzero(layer.entry_reverses[e0:e1][chosen]).tolist():
+        path = steps[k]
+        steps[k] = _moved(path, path.points[::-1])
+    for k, path in rotated:
+        steps[k] = path
+    out.extend(steps)
+    if at_entry >= 0:
+        at = complex(layer.entry_xy[e0 + at_entry])
     return at.real, at.imag
 
 
 class _ScanSearch:
-    """Nearest unprinted entry by one numpy pass over a group's entries (printed ones are
-    moved to infinity)."""
+    """Nearest unprinted entry by one numpy pass over a group's entries.
+
+    Attributes:
+        printed: one flag byte per entry (set by the tour).
+        neighbours, neighbour_offsets: empty neighbour lists (every query is live).
+    """
 
     def __init__(self, layer: _Layer, e0: int, e1: int) -> None:
-        self.xy = layer.entry_xy[e0:e1].copy()
+        self.xy = layer.entry_xy[e0:e1]
+        self.printed = bytearray(self.xy.size)
+        self.printed_mask = np.frombuffer(self.printed, dtype=bool)
+        self.neighbours: list[int] = []
+        self.neighbour_offsets = [0] * (self.xy.size + 1)
 
-    def nearest(self, at: complex, at_entry: int) -> int:
-        """Index (in the group) of the entry nearest ``at``."""
-        return int(np.abs(self.xy - at).argmin())
-
-    def remove(self, lo: int, hi: int) -> None:
-        """Entries ``lo..hi-1`` (one path's) are printed."""
-        self.xy[lo:hi] = _FAR
+    def nearest(self, at: complex, alive: int) -> int:
+        """Index (in the group) of the unprinted entry nearest ``at`` (``alive`` of them)."""
+        distance = np.abs(self.xy - at)
+        distance[self.printed_mask] = np.inf
+        return int(distance.argmin())
 
 
 class _GridSearch:
@@ -368,36 +410,24 @@ class _GridSearch:
 
     def __init__(self, layer: _Layer, e0: int, e1: int) -> None:
         self.xy = layer.entry_xy[e0:e1]
-        # One flag byte per entry, read per item in Python and as a numpy view.
-        self.printed_bytes = bytearray(self.xy.size)
-        self.printed = np.frombuffer(self.printed_bytes, dtype=bool)
-        self.alive = self.xy.size
+        # One flag byte per entry, set by the tour per item and read here as a numpy view.
+        self.printed = bytearray(self.xy.size)
+        self.printed_mask = np.frombuffer(self.printed, dtype=bool)
         self.ids = np.arange(self.xy.size)
         self.grid = _EntryGrid(self.xy, self.ids)
         self.neighbours, self.neighbour_offsets = self.grid.neighbour_lists(NEIGHBOURS)
 
-    def nearest(self, at: complex, at_entry: int) -> int:
-        """Index (in the group) of the unprinted entry nearest ``at`` (the position of
-        entry ``at_entry`` when that is not -1)."""
-        if at_entry >= 0:
-            printed = self.printed_bytes
-            for candidate in self.neighbours[self.neighbour_offsets[at_entry] : self.neighbour_offsets[at_entry + 1]]:
-                if not printed[candidate]:
-                    return candidate
-        if self.ids.size > 2 * self.alive:
-            self.ids = self.ids[~self.printed[self.ids]]
-            if self.alive > BRUTE_FORCE_ENTRIES:
+    def nearest(self, at: complex, alive: int) -> int:
+        """Index (in the group) of the unprinted entry nearest ``at`` (``alive`` of them)."""
+        if self.ids.size > 2 * alive:
+            self.ids = self.ids[~self.printed_mask[self.ids]]
+            if alive > BRUTE_FORCE_ENTRIES:
                 self.grid = _EntryGrid(self.xy, self.ids)
-        if self.alive <= BRUTE_FORCE_ENTRIES:
-            ids = self.ids[~self.printed[self.ids]]
+        if alive <= BRUTE_FORCE_ENTRIES:
+            ids = self.ids[~self.printed_mask[self.ids]]
             self.ids = ids
             return int(ids[np.abs(self.xy[ids] - at).argmin()])
-        return self.grid.nearest(at, self.printed)
-
-    def remove(self, lo: int, hi: int) -> None:
-        """Entries ``lo..hi-1`` (one path's) are printed."""
-        self.printed_bytes[lo:hi] = b"\x01" * (hi - lo)
-        self.alive -= hi - lo
+        return self.grid.nearest(at, self.printed_mask)
 
 
 class _EntryGrid:
