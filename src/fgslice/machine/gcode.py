@@ -39,7 +39,7 @@ acceleration), plus the dialect's fixed ``change_time_s`` per state change.
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from functools import cache
 from operator import attrgetter
@@ -61,7 +61,7 @@ INT_DIGITS = 9
 MADE_BODIES = 4096
 ROLES = tuple(Role)
 ROLE_CODE = {role: k for k, role in enumerate(ROLES)}
-TYPE_LINES = np.array([f";TYPE:{role.value}\n" for role in ROLES] + [""], dtype=object)
+TYPE_LINES = [f";TYPE:{role.value}\n" for role in ROLES] + [""]  # the last: no change
 
 
 def fgslice_version() -> str:
@@ -163,15 +163,29 @@ def format_lines(fields: list[tuple[str, np.ndarray, int]], suffix: str = "\n") 
         blocks += [_literal(text, n), *number]
         lengths += len(text) + size
     blocks.append(_literal(suffix, n))
+    return _assemble(blocks, n, lengths)
+
+
+def _assemble(blocks: list[np.ndarray], n: int, lengths: np.ndarray) -> tuple[str, np.ndarray]:
+    """The text of ``n`` columns of stacked ``(w_i, n)`` uint8 blocks, column after column,
+    0 bytes dropped, and the ``(n + 1,)`` offsets of each column's text (``lengths``: the
+    number of nonzero bytes of each column)."""
     columns = np.empty((sum(len(b) for b in blocks), n), dtype=np.uint8)  # filled column-major: faster
     start = 0
     for block in blocks:
         columns[start : start + len(block)] = block
         start += len(block)
-    matrix = columns.T
     offsets = np.zeros(n + 1, dtype=np.int64)
     np.cumsum(lengths, out=offsets[1:])
-    return matrix.tobytes().translate(None, b"\0").decode("ascii"), offsets
+    return columns.T.tobytes().translate(None, b"\0").decode("ascii"), offsets
+
+
+def _text_table(texts: list[str]) -> np.ndarray:
+    """``(max_len, len(texts))`` uint8: the ASCII bytes of each text in a column, 0-padded,
+    so that ``table[:, codes]`` is a block for :func:`_assemble` choosing a text per column."""
+    width = max(map(len, texts), default=0)
+    padded = "".join(text.ljust(width, "\0") for text in texts).encode("ascii")
+    return np.frombuffer(padded, dtype=np.uint8).reshape(len(texts), width).T
 
 
 def _literal(text: str, n: int) -> np.ndarray:
@@ -182,12 +196,6 @@ def _literal(text: str, n: int) -> np.ndarray:
 def format_moves(x: np.ndarray, y: np.ndarray, e: np.ndarray) -> tuple[str, np.ndarray]:
     """``G1 X<x> Y<y> E<e>`` lines (3, 3 and 5 decimals); see :func:`format_lines`."""
     return format_lines([("G1 X", x, 3), (" Y", y, 3), (" E", e, 5)])
-
-
-def _split(text: str, offsets: np.ndarray, bounds: np.ndarray) -> list[str]:
-    """Pieces ``text[offsets[bounds[i]]:offsets[bounds[i + 1]]]``."""
-    cuts = offsets[bounds].tolist()
-    return [text[a:b] for a, b in zip(cuts[:-1], cuts[1:])]
 
 
 @dataclass
@@ -369,6 +377,15 @@ class _LayerPaths:
                    before[~is_path], rows, prepared.data if prepared is not None and paths else None, missing)
 
 
+def _choices(values: np.ndarray, shown: np.ndarray, line: Callable[[float], str]) -> tuple[np.ndarray, np.ndarray]:
+    """A :func:`_text_table` of ``line(v)`` for the distinct ``values[shown]`` (and an
+    empty last column) and the column of each row: its line where ``shown``, else empty."""
+    distinct, which = np.unique(values[shown], return_inverse=True)
+    codes = np.full(len(values), len(distinct), dtype=np.int64)
+    codes[shown] = which
+    return _text_table([line(v) for v in distinct.tolist()] + [""]), codes
+
+
 class GcodeWriter:
     """Writes G-code to ``out`` layer by layer and gathers statistics.
 
@@ -424,6 +441,7 @@ class GcodeWriter:
         self._skipped_paths = 0
         self._colors_used: set[int] = set()
         self._made: dict[tuple, tuple] = {}  # bodies formatted here, by geometry (purge lines repeat)
+        self._type_table = _text_table(TYPE_LINES)
 
     # -- header ---------------------------------------------------------------------
     def write_header(self) -> None:
@@ -468,8 +486,9 @@ class GcodeWriter:
 
         layer = _LayerPaths.of(plan)
         if layer.n:
-            before, resets, colors, trailing = self._state_changes_before(layer)
-            parts.extend(self._write_paths(layer, before, resets, colors, plan.index, trailing))
+            at, texts, colors = self._state_changes_before(layer)
+            trailing: list[str] = []
+            parts.extend(self._write_paths(layer, at, texts, colors, plan.index, trailing))
             pending = "".join(trailing)
         else:
             pending = "".join(self._set_state(c) for c in layer.states)
@@ -480,11 +499,11 @@ class GcodeWriter:
         self._stats_layers += 1
         self.out.write("".join(parts))
 
-    def _state_changes_before(self, layer: "_LayerPaths") -> tuple[list[str], np.ndarray, np.ndarray, list[str]]:
-        """The state-change text due before each path, whether it moved the head, the
-        state each path is printed in (-1 for "unknown") and the text due after the last
-        path. A path of a known color printed while the state is still unknown (no
-        SetState yet in the print) sets that state first."""
+    def _state_changes_before(self, layer: "_LayerPaths") -> tuple[np.ndarray, list[str], np.ndarray]:
+        """The state changes of the layer that change the state: the path each one is due
+        before (``layer.n``: after the last path) and its text, in order; and the state each
+        path is printed in (-1 for "unknown"). A path of a known color printed while the
+        state is still unknown (no SetState yet in the print) sets that state first."""
         n = layer.n
         at = layer.state_before.tolist()  # the path each SetState precedes (n: none)
         changes = layer.states.tolist()
@@ -493,21 +512,17 @@ class GcodeWriter:
             if len(known) and (not at or known[0] < at[0]):
                 at.insert(0, int(known[0]))
                 changes.insert(0, int(layer.colors[known[0]]))
-        before = [""] * (n + 1)
-        resets = np.zeros(n + 1, dtype=bool)
-        state_after = []
+        due, texts, state_after = [], [], []
         start_state = -1 if self._state is None else self._state
-        moves_head = self.dialect.moves_head
         for j, color in zip(at, changes):
             text = self._set_state(color)
             if text:
-                before[j] += text
-                resets[j] |= moves_head
+                due.append(j)
+                texts.append(text)
             state_after.append(self._state)
         colors = np.array([start_state, *state_after], dtype=np.int64)
         colors = colors[np.searchsorted(np.array(at, dtype=np.int64), np.arange(n), side="right")]
-        trailing = [before.pop()] if before[-1] else []
-        return before, resets[:n], colors, trailing
+        return np.array(due, dtype=np.int64), texts, colors
 
     def _set_state(self, color: int) -> str:
         """The lines of a state change to ``color``, or "" if it is the current state."""
@@ -581,8 +596,8 @@ class GcodeWriter:
     def _write_paths(
         self,
         layer: "_LayerPaths",
-        before: list[str],
-        resets: np.ndarray,
+        at: np.ndarray,
+        texts: list[str],
         colors: np.ndarray,
         layer_index: int,
         trailing: list[str],
@@ -590,30 +605,36 @@ class GcodeWriter:
         """The text of a layer's paths: their bodies (:meth:`_bodies`), travels,
         annotations, in bulk.
 
-        ``before[i]`` is the state-change text due before path ``i``; ``resets[i]`` tells
-        that it moved the head; ``colors[i]`` the state it is printed in. Text due before
-        paths that print nothing moves to the next printed path (or to ``trailing``).
+        ``texts[k]`` is a state change due before path ``at[k]`` (after the last path when
+        ``at[k]`` is ``layer.n``); ``colors[i]`` is the state path ``i`` is printed in. A
+        state change due before paths that print nothing goes before the next printed
+        path, else to ``trailing``; with a dialect that moves the head, the next path's
+        travel starts from an unknown position.
         """
         s = self.settings
         bodies, rows, text = self._bodies(layer)
         is_printed = bodies.length[rows] > 0
         printed = np.flatnonzero(is_printed)
-        if len(printed) < layer.n:
-            self._skipped_paths += layer.n - len(printed)
-            before, resets = self._carry_over(before, resets.tolist(), is_printed, trailing)
-        if not len(printed):
+        n = len(printed)
+        self._skipped_paths += layer.n - n
+        changes: dict[int, str] = {}
+        for k, change in zip(np.searchsorted(printed, at).tolist(), texts):
+            if k == n:
+                trailing.append(change)
+            else:
+                changes[k] = changes.get(k, "") + change
+        if not n:
             return []
         rows = rows[printed]
-        cuts = zip(bodies.bounds[rows].tolist(), bodies.bounds[rows + 1].tolist())
-        chunks = [text[a:b] for a, b in cuts]
         widths = layer.widths[printed]
         starts, last = bodies.start[rows], bodies.end[rows]
 
-        n = len(printed)
         codes = layer.codes[printed]
         feeds = self._feeds(codes, layer_index)
         prev = np.vstack([[np.nan, np.nan] if self._pos is None else [self._pos], last[:-1]])
-        unknown = np.array(resets, dtype=bool)[printed] | np.isnan(prev[:, 0])
+        unknown = np.isnan(prev[:, 0])
+        if self.dialect.moves_head:
+            unknown[list(changes)] = True
         travel = unknown | (starts != prev).any(axis=1)
         dist = np.where(unknown, 0.0, np.hypot(*(starts - np.nan_to_num(prev)).T))
         may_retract = np.ones(n, dtype=bool)
@@ -622,25 +643,22 @@ class GcodeWriter:
         retracted = retract.copy()
         retracted[0] |= self._retracted
         hop = retracted & travel & (s.z_hop > 0)
-
-        travel_text, travel_off = format_lines(
-            [("G0 X", starts[travel, 0], 3), (" Y", starts[travel, 1], 3)], f" F{fmt(s.travel_speed * 60, 1)}\n"
-        )
-        header = np.empty(n, dtype=object)
-        header[:] = [before[i] for i in printed.tolist()]
-        header[retract] += self._retract_line()
-        header[hop] += f"G1 Z{fmt(self._z + s.z_hop, 3)} F{fmt(s.z_speed * 60, 1)}\n"
-        header[travel] += np.array(_split(travel_text, travel_off, np.arange(travel.sum() + 1)), dtype=object)
-        header[hop] += f"G1 Z{fmt(self._z, 3)} F{fmt(s.z_speed * 60, 1)}\n"
-        header[retracted] += self._retract_line(1)
         before_code = np.append(-1 if self._role is None else ROLE_CODE[self._role], codes[:-1])
-        header += TYPE_LINES[np.where(codes != before_code, codes, len(ROLES))]
         new_width = widths != np.append(np.nan if self._width is None else self._width, widths[:-1])
-        width_lines = {w: f";WIDTH:{fmt(w, 4)}\n" for w in np.unique(widths[new_width]).tolist()}
-        header[new_width] += np.array([width_lines[w] for w in widths[new_width].tolist()], dtype=object)
         new_feed = travel | (feeds != np.append(np.nan if self._feed is None else self._feed, feeds[:-1]))
-        feed_lines = {f: f"G1 F{fmt(f * 60, 1)}\n" for f in np.unique(feeds[new_feed]).tolist()}
-        header[new_feed] += np.array([feed_lines[f] for f in feeds[new_feed].tolist()], dtype=object)
+
+        header, cuts = self._headers(
+            starts, travel, retract, hop, retracted,
+            np.where(codes != before_code, codes, len(ROLES)),
+            _choices(widths, new_width, lambda w: f";WIDTH:{fmt(w, 4)}\n"),
+            _choices(feeds, new_feed, lambda f: f"G1 F{fmt(f * 60, 1)}\n"),
+        )
+        pieces = [""] * (2 * n)
+        heads = cuts.tolist()
+        pieces[0::2] = [header[a:b] for a, b in zip(heads[:-1], heads[1:])]
+        pieces[1::2] = [text[a:b] for a, b in zip(bodies.bounds[rows].tolist(), bodies.bounds[rows + 1].tolist())]
+        for k, change in changes.items():
+            pieces[2 * k] = change + pieces[2 * k]
 
         n_retract, n_hop = int(retract.sum()), int(hop.sum())
         self._retractions += n_retract
@@ -651,7 +669,8 @@ class GcodeWriter:
         filament = bodies.e[rows]
         self._e_written += float(filament.sum())
         volume = filament * self.filament_area
-        for color, v in zip(colors[printed].tolist(), volume.tolist()):
+        used, which = np.unique(colors[printed], return_inverse=True)
+        for color, v in zip(used.tolist(), np.bincount(which, weights=volume).tolist()):
             self._volume_by_color[color] = self._volume_by_color.get(color, 0.0) + v
         self._purge_mm3 += float(volume[codes == ROLE_CODE[Role.WIPE_TOWER]].sum())
         self._bbox_min = np.minimum(self._bbox_min, [*bodies.low[rows].min(axis=0), self._z])
@@ -660,24 +679,41 @@ class GcodeWriter:
         self._role, self._width, self._feed = ROLES[codes[-1]], float(widths[-1]), float(feeds[-1])
         self._retracted = False
         self._extruded = True
-        return [piece for pair in zip(header.tolist(), chunks) for piece in pair]
+        return pieces
 
-    @staticmethod
-    def _carry_over(
-        before: list[str], resets: list[bool], printed: np.ndarray, trailing: list[str]
-    ) -> tuple[list[str], list[bool]]:
-        """Move state-change text of paths that print nothing to the next printed path."""
-        before, resets = list(before), list(resets)
-        carry, carry_reset = "", False
-        for i, ok in enumerate(printed.tolist()):
-            if ok:
-                before[i], resets[i] = carry + before[i], carry_reset or resets[i]
-                carry, carry_reset = "", False
-            else:
-                carry, carry_reset = carry + before[i], carry_reset or resets[i]
-        if carry:
-            trailing.insert(0, carry)
-        return before, resets
+    def _headers(
+        self,
+        starts: np.ndarray,
+        travel: np.ndarray,
+        retract: np.ndarray,
+        hop: np.ndarray,
+        retracted: np.ndarray,
+        type_codes: np.ndarray,
+        width_lines: tuple[np.ndarray, np.ndarray],
+        feed_lines: tuple[np.ndarray, np.ndarray],
+    ) -> tuple[str, np.ndarray]:
+        """What goes before each of ``n`` paths, as one text and ``(n + 1,)`` offsets:
+        retraction, lift, travel to ``starts`` (mm), lowering, un-retraction where the
+        ``(n,)`` masks say, the ``;TYPE:`` line of ``type_codes`` (``len(ROLES)``: none),
+        then the width and feed lines (``(table, codes)`` of :func:`_choices`)."""
+        s = self.settings
+        n = len(starts)
+        lift = f"G1 Z{fmt(self._z + s.z_hop, 3)} F{fmt(s.z_speed * 60, 1)}\n"
+        lower = f"G1 Z{fmt(self._z, 3)} F{fmt(s.z_speed * 60, 1)}\n"
+        retract_line, unretract_line = self._retract_line(), self._retract_line(1)
+        travel_end = f" F{fmt(s.travel_speed * 60, 1)}\n"
+        blocks = [_literal(retract_line, n) * retract, _literal(lift, n) * hop]
+        lengths = retract * len(retract_line) + hop * (len(lift) + len(lower)) + retracted * len(unretract_line)
+        for text, values in (("G0 X", starts[:, 0]), (" Y", starts[:, 1])):
+            number, size = _number_block(values, 3)
+            blocks += [_literal(text, n) * travel, *(block * travel for block in number)]
+            lengths += travel * (size + len(text))
+        lengths += travel * len(travel_end)
+        blocks += [_literal(travel_end, n) * travel, _literal(lower, n) * hop, _literal(unretract_line, n) * retracted]
+        for table, codes in ((self._type_table, type_codes), width_lines, feed_lines):
+            blocks.append(table[:, codes])
+            lengths += np.count_nonzero(table, axis=0)[codes]
+        return _assemble(blocks, n, lengths)
 
     # -- footer ---------------------------------------------------------------------
     def finish(self) -> dict:
