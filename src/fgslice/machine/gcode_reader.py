@@ -225,8 +225,6 @@ def _table(chars: str) -> np.ndarray:
 
 _AXIS_TABLE = _table(_AXES + _AXES.lower())
 _UPPER_AXIS_TABLE = _table(_AXES)
-#: Words per move line that :func:`_simple_words` reads (``G0 X Y Z E F`` at most).
-_SIMPLE_WORDS = 5
 _END_TABLE = _table(" \t\r\n;\x00")
 _MOVE_END_TABLE = _table(" \t\r\n;")
 _COMMENT_KEYS = _table("TWLZS")
@@ -236,6 +234,7 @@ _POW10_INT = 10 ** np.arange(17, dtype=np.int64)
 _POW10 = 10.0 ** np.arange(17)
 _LIVE_BYTES = np.array([[(1 << 8 * min(k, 8)) - 1, (1 << 8 * max(k - 8, 0)) - 1] for k in range(17)], dtype=np.uint64)
 _CHUNK = 1 << 16
+_PLAIN_CHUNK = 1 << 16
 
 
 def _ffill(values: np.ndarray, initial: float) -> np.ndarray:
@@ -468,42 +467,54 @@ def _parse_chunk(padded: np.ndarray, words: np.ndarray, begin: np.ndarray) -> tu
     return np.where(c0 == 45, -values, values), ~bad
 
 
-_LIVE_WORD = np.array([(1 << 8 * k) - 1 for k in range(9)], dtype=np.uint64)
+def _bytes(value: int) -> np.uint64:
+    """``value`` in every byte of a uint64 word."""
+    return np.uint64(value * 0x0101010101010101)
 
 
-def _parse_short(padded: np.ndarray, words: np.ndarray,
-                 begin: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`_parse_chunk` for numbers of at most 7 characters (all coordinates and
-    extrusions a slicer writes), from one uint64 word each: values, validity, which
-    numbers run longer (their values here are meaningless; the caller reads them again)
-    and the characters read of each (7 for longer ones).
+_HIGH_BITS, _LOW_BITS = _bytes(0x80), _bytes(0x7F)
+_ZERO_CHARS, _DIGIT_LIMIT, _POINT_XOR = _bytes(0x30), _bytes(0x76), _bytes(0x1E)
+_ONE, _SEVEN, _EIGHT, _BYTE = np.uint64(1), np.uint64(7), np.uint64(8), np.uint64(0xFF)
 
-    The point's byte is shifted out of the word, leaving the digits (the sign as a
-    leading 0) left-aligned; their 8-digit integer is ``mantissa * 10**(8 - digits)``,
-    so one division by ``10**(8 - point)`` (both exact in float64) gives the correctly
-    rounded value."""
+
+def _below_lowest(v: np.ndarray) -> np.ndarray:
+    """The bits below the lowest set bit of each uint64 word (all 64 when none is set)."""
+    return (v - _ONE) & ~v
+
+
+def _parse_short(words: np.ndarray, begin: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Numbers of at most 7 characters (all coordinates and extrusions a slicer writes)
+    starting at ``begin``, each from the one uint64 word ``words[begin]`` (little endian:
+    the first character in the low byte): values, validity and length in characters (the
+    first character that is not a digit, a point or a leading sign; 8 when all eight are).
+
+    Valid: at most 7 characters, at most one point, at least one digit; the caller checks
+    what follows. All byte classes are found at once in the word (SWAR): ``d = byte ^ '0'``
+    is a digit below 10, a point is ``d == 0x1E``; the high bit of each byte flags a class.
+    The point's byte is shifted out, leaving the digits (a sign as a leading 0)
+    left-aligned; their 8-digit integer is ``mantissa * 10**(8 - digits)``, so one division
+    by ``10**(8 - point)`` (both exact in float64) gives the correctly rounded value, the
+    same as ``float(text)``."""
     word = words[begin]
-    chars = word.view(np.uint8).reshape(-1, 8)
-    digits, is_digit, is_point, c0, signed, foreign = _classify(chars)
-    length = _first_byte_word(foreign.view(np.uint64)[:, 0])
-    longer = length == 8
-    length[longer] = 7
-    points = is_point.view(np.uint64)[:, 0]
-    point = np.minimum(_first_byte_word(points), length)
-    second = _first_byte_word(points & (points - np.uint64(1)))
-    has_point = point < length
-    bad = ~_END_TABLE[padded[begin + length]] | (second < length) | (length - has_point - signed <= 0)
-    digits *= is_digit
-    live = digits.view(np.uint64)[:, 0]
-    below = _LIVE_WORD[point]
-    live = ((live & below) | ((live >> np.uint64(8)) & ~below)) & _LIVE_WORD[length - has_point]
-    values = _eight_digits(live) / _POW10[8 - point]
-    return np.where(c0 == 45, -values, values), ~bad, longer, length
-
-
-def _first_byte_word(v: np.ndarray) -> np.ndarray:
-    """Index of the first nonzero byte of each uint64 word (8 if none)."""
-    return (np.bitwise_count((v & (~v + np.uint64(1))) - np.uint64(1)) >> 3).astype(np.int64)
+    d = word ^ _ZERO_CHARS
+    non_digit = (((d & _LOW_BITS) + _DIGIT_LIMIT) | d) & _HIGH_BITS
+    e = d ^ _POINT_XOR
+    point = ~(((e & _LOW_BITS) + _LOW_BITS) | e) & _HIGH_BITS
+    c0 = word & _BYTE
+    negative = c0 == 45
+    sign = (negative | (c0 == 43)).astype(np.uint64) * _BYTE
+    below_end = _below_lowest(non_digit & ~point & ~(sign & _HIGH_BITS))
+    length = (np.bitwise_count(below_end) >> 3).astype(np.int64)
+    live = below_end >> _SEVEN
+    points = point & live
+    below_point = _below_lowest(points) >> _SEVEN
+    at = np.minimum(np.bitwise_count(below_point) >> 3, length)
+    digits = d & live & ~sign
+    digits = (digits & below_point) | ((digits >> _EIGHT) & ~below_point)
+    valid = (length < 8) & ((points & (points - _ONE)) == 0) & ((~non_digit & live & _HIGH_BITS) != 0)
+    values = _eight_digits(digits) / _POW10[8 - at]
+    np.negative(values, out=values, where=negative)
+    return values, valid, length
 
 
 def _parse_numbers(padded: np.ndarray, begin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -524,7 +535,9 @@ def _parse_numbers(padded: np.ndarray, begin: np.ndarray) -> tuple[np.ndarray, n
     valid = np.empty(len(begin), dtype=bool)
     for s in range(0, len(begin), _CHUNK):
         part = begin[s : s + _CHUNK]
-        value, ok, longer, _ = _parse_short(padded, words, part)
+        value, ok, length = _parse_short(words, part)
+        ok &= _END_TABLE[padded[part + length]]
+        longer = length == 8
         if longer.any():
             value[longer], ok[longer] = _parse_chunk(padded, words, part[longer])
         values[s : s + _CHUNK], valid[s : s + _CHUNK] = value, ok
@@ -536,42 +549,60 @@ def _byte_words(padded: np.ndarray) -> np.ndarray:
     return np.ndarray(buffer=padded, dtype="<u8", shape=(len(padded) - 7,), strides=(1,))
 
 
-def _simple_words(padded: np.ndarray, first: np.ndarray, ends: np.ndarray,
-                  lines: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Axis words of the move ``lines`` written in the plain shape every slicer writes
-    most: ``G<n>`` then up to :data:`_SIMPLE_WORDS` words of an upper-case axis letter and
-    a valid number of at most 7 characters, each after one blank, and nothing else.
+def _plain_words(padded: np.ndarray, size: int, row_of_line: np.ndarray,
+                 n_rows: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Axis words of the move lines (``row_of_line >= 0``, giving each line's row) of the
+    text ``padded[:size]`` written in the plain shape every slicer writes most: ``G<n>`` at
+    the line's start, then words of an upper-case axis letter and a valid number of at most
+    7 characters, each after one blank, and nothing else.
 
-    The words are found word by word over all such lines at once: a blank and an axis
-    letter, the number (:func:`_parse_short`, which also gives its length), then a blank
-    or the line's end. Returns (line index, letter, value) per word of the lines of that
-    shape, and the lines of ``lines`` that are not (for :func:`_general_words`).
+    All words of all lines are read at once from the blanks and line ends in text order
+    (a blank's line is the count of line ends before it): the letter after each blank, the
+    number after it (:func:`_parse_short`, which also gives its length), which must end at
+    the next blank or line end; a line's first blank must be its fourth character. Returns
+    (row, letter, value) per word of the rows of that shape, and the other rows (for
+    :func:`_general_words`).
     """
+    is_separator = (padded == 32) | (padded == 10)
+    is_separator[size] = True  # ends the last line when the text does not
+    separator = np.flatnonzero(is_separator)
+    newline = np.concatenate([[True], padded[separator] != 32])
+    separator = np.concatenate([[-1], separator])  # the end of the line before the text
+    blank = np.flatnonzero(~newline)
+    row = row_of_line[(np.cumsum(newline) - 1)[blank]]
+    moving = row >= 0
+    blank, row = blank[moving], row[moving]
+    at = separator[blank]
+    letter = padded[at + 1]
+    values, valid = _parse_plain(padded, at + 2, separator[blank + 1])
+    valid &= _UPPER_AXIS_TABLE[letter] & (~newline[blank - 1] | (at == separator[blank - 1] + 3))
+    plain = np.zeros(n_rows, dtype=bool)
+    plain[row] = True
+    plain[row[~valid]] = False
+    keep = plain[row]
+    return row[keep], letter[keep], values[keep], np.flatnonzero(~plain)
+
+
+def _parse_plain(padded: np.ndarray, begin: np.ndarray, end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Values of the numbers of at most 7 characters at ``padded[begin:end]``
+    (:func:`_parse_short` in pieces that keep the temporaries in cache) and whether each
+    is valid and ends exactly at ``end``."""
     words = _byte_words(padded)
-    found: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
-    other = np.zeros(len(first), dtype=bool)
-    active, pos = lines, first[lines] + 2
-    for _ in range(_SIMPLE_WORDS):
-        letter = padded[pos + 1]
-        ok = (padded[pos] == 32) & _UPPER_AXIS_TABLE[letter]
-        value, valid, longer, length = _parse_short(padded, words, pos + 2)
-        stop = pos + 2 + length
-        ok &= valid & ~longer
-        done = ok & (stop == ends[active])
-        ok &= done | (padded[stop] == 32)
-        other[active[~ok]] = True
-        found.append((active[ok], letter[ok], value[ok]))
-        going = ok & ~done
-        active, pos = active[going], stop[going]
-    other[active] = True
-    lid, letters, values = (np.concatenate(column) for column in zip(*found))
-    keep = ~other[lid]
-    return lid[keep], letters[keep], values[keep], lines[other[lines]]
+    values = np.empty(len(begin))
+    valid = np.empty(len(begin), dtype=bool)
+    for s in range(0, len(begin), _PLAIN_CHUNK):
+        part = begin[s : s + _PLAIN_CHUNK]
+        value, ok, length = _parse_short(words, part)
+        values[s : s + _PLAIN_CHUNK] = value
+        np.equal(part + length, end[s : s + _PLAIN_CHUNK], out=valid[s : s + _PLAIN_CHUNK])
+        valid[s : s + _PLAIN_CHUNK] &= ok
+    return values, valid
 
 
 def _general_words(padded: np.ndarray, starts: np.ndarray, ends: np.ndarray, first: np.ndarray,
                    lines: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Axis words of any move ``lines``: (line index, upper-case letter, value, valid) per word.
+    """Axis words of any move ``lines``: (index into ``lines``, upper-case letter, value,
+    valid) per word.
 
     A word is an axis letter right after a blank, before the line's comment. The lines'
     bytes are first gathered into one buffer (when they are a small part of the chunk),
@@ -603,7 +634,7 @@ def _general_words(padded: np.ndarray, starts: np.ndarray, ends: np.ndarray, fir
     keep = (pos < comment_start[lid]) & (pos > first[lines][lid] - starts[lines][lid] + offsets[lid] + 1)
     pos, lid = pos[keep], lid[keep]
     values, valid = _parse_numbers(text, pos + 1)
-    return lines[lid], text[pos] & 0xDF, values, valid
+    return lid, text[pos] & 0xDF, values, valid
 
 
 class _Reader:
@@ -698,19 +729,20 @@ class _Reader:
         n_rows = len(move_lines)
         row_of_line = np.full(n_lines, -1, dtype=np.int64)
         row_of_line[move_lines] = np.arange(n_rows)
-        lid, letters, values, rest = _simple_words(padded, first, ends, move_lines)
-        rest_lid, rest_letters, rest_values, valid = _general_words(padded, starts, ends, first, rest)
+        rows, letters, values, rest = _plain_words(padded, len(buf), row_of_line, n_rows)
+        rest_index, rest_letters, rest_values, valid = _general_words(padded, starts, ends, first, move_lines[rest])
+        rest_rows = rest[rest_index]
         faults = list(events.faults)
         for i in np.flatnonzero(~valid).tolist():
-            line = int(rest_lid[i])
+            line = int(move_lines[rest_rows[i]])
             word = data[starts[line] : ends[line]].decode("utf-8", errors="replace").split(";")[0].strip()
             faults.append(Fault(offset + line + 1, f"{word}: {chr(rest_letters[i])} value is not a finite number"))
-        lid = np.concatenate([lid, rest_lid[valid]])
+        rows = np.concatenate([rows, rest_rows[valid]])
         letters = np.concatenate([letters, rest_letters[valid]])
         values = np.concatenate([values, rest_values[valid]])
-        table = np.full((n_rows, len(_AXES)), np.nan)
-        table[row_of_line[lid], _AXIS_COLUMN[letters]] = values
-        axis = {letter: table[:, k] for k, letter in enumerate(_AXES)}
+        table = np.full((len(_AXES), n_rows), np.nan)
+        table.reshape(-1)[_AXIS_COLUMN[letters] * n_rows + rows] = values
+        axis = dict(zip(_AXES, table))
 
         move_numbers = move_lines + (offset + 1)
         end = np.empty((n_rows, 3))
