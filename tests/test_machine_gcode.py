@@ -258,6 +258,19 @@ def test_prepared_bodies_write_the_same_text_as_the_writer():
     assert write(shifted_plain)[0] == write(shifted)[0]
 
 
+def test_bodies_prepared_in_this_process_write_the_same_text():
+    from fgslice.machine.gcode import prepare_bodies
+
+    settings = load_settings("marlin-mixing")
+    plain, prepared = [layer(i) for i in range(3)], [layer(i) for i in range(3)]
+    for plan in prepared:
+        prepare_bodies(plan, settings)  # with --jobs 1 plans never leave the process
+    assert all(plan.packed is not None and len(plan.packed.data.e) == 4 for plan in prepared)
+    text, stats, _ = write(prepared)
+    assert (text, stats) == write(plain)[:2]
+    assert stats["extruded_mm3"] == pytest.approx(expected_volume(plain), rel=1e-5)
+
+
 def test_each_path_writes_its_exact_filament():
     plans = [layer(i) for i in range(2)]
     text, stats, settings = write(plans)

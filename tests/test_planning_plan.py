@@ -56,3 +56,23 @@ def test_prepared_rows_follow_their_paths():
     assert back.prepared.data == {"payload": 1}
     assert [rows.get(p, -1) for p in back.paths] == [plan.prepared.rows.get(p, -1) for p in plan.paths]
     assert rows.get(back.steps[3], -1) == -1
+
+
+def test_pack_holds_the_same_steps_as_columns():
+    plan = sample_plan()
+    reference = copy.deepcopy(plan)
+    packed = plan.pack()
+    assert plan.packed is packed and plan.pack() is packed
+    assert np.allclose(packed.lengths, [p.length for p in reference.paths], rtol=1e-12)
+    data = pickle.dumps(plan)
+    same_steps(reference, pickle.loads(data))
+    same_steps(reference, plan)  # built again on access, columns dropped
+    assert plan.packed is None
+
+
+def test_pack_refuses_unknown_steps():
+    class Marker(SetState):
+        pass
+
+    plan = LayerPlan(0, 0.2, 0.2, [Marker(1), SetState(2)])
+    assert plan.pack() is None and plan.steps == [Marker(1), SetState(2)]

@@ -152,32 +152,51 @@ def format_lines(fields: list[tuple[str, np.ndarray, int]], suffix: str = "\n") 
     n = len(fields[0][1])
     if n == 0:
         return "", np.zeros(1, dtype=np.int64)
-    for _, values, _ in fields:
-        if not np.isfinite(values).all():
-            raise ValueError("a toolpath has a non-finite coordinate")
-
-    blocks: list[np.ndarray] = []
-    lengths = np.full(n, len(suffix), dtype=np.int64)
-    for text, values, decimals in fields:
-        number, size = _number_block(values, decimals)
-        blocks += [_literal(text, n), *number]
-        lengths += len(text) + size
-    blocks.append(_literal(suffix, n))
+    blocks, lengths = _line_blocks(fields, suffix)
     return _assemble(blocks, n, lengths)
 
 
-def _assemble(blocks: list[np.ndarray], n: int, lengths: np.ndarray) -> tuple[str, np.ndarray]:
-    """The text of ``n`` columns of stacked ``(w_i, n)`` uint8 blocks, column after column,
-    0 bytes dropped, and the ``(n + 1,)`` offsets of each column's text (``lengths``: the
-    number of nonzero bytes of each column)."""
+def _line_blocks(fields: list[tuple[str, np.ndarray, int]], suffix: str) -> tuple[list[np.ndarray], np.ndarray]:
+    """The blocks of :func:`format_lines`' lines (for :func:`_stack`) and the printed
+    length of each line. Numbers of the same decimals are formatted in one call."""
+    n = len(fields[0][1])
+    numbers: dict[int, list[np.ndarray]] = {}
+    for _, values, decimals in fields:
+        numbers.setdefault(decimals, []).append(values)
+    columns = {}
+    for decimals, arrays in numbers.items():
+        values = np.concatenate(arrays) if len(arrays) > 1 else arrays[0]
+        if not np.isfinite(values).all():
+            raise ValueError("a toolpath has a non-finite coordinate")
+        columns[decimals] = [_number_block(values, decimals), 0]
+    blocks: list[np.ndarray] = []
+    lengths = np.full(n, len(suffix), dtype=np.int64)
+    for text, _, decimals in fields:
+        (number, size), k = columns[decimals]
+        columns[decimals][1] += 1
+        blocks += [_literal(text), *(block[:, k * n : (k + 1) * n] for block in number)]
+        lengths += len(text) + size[k * n : (k + 1) * n]
+    blocks.append(_literal(suffix))
+    return blocks, lengths
+
+
+def _stack(blocks: list[np.ndarray], n: int) -> np.ndarray:
+    """``(sum w_i, n)`` uint8: the ``(w_i, n)`` (or ``(w_i, 1)``, repeated) blocks one under another."""
     columns = np.empty((sum(len(b) for b in blocks), n), dtype=np.uint8)  # filled column-major: faster
     start = 0
     for block in blocks:
         columns[start : start + len(block)] = block
         start += len(block)
+    return columns
+
+
+def _assemble(blocks: list[np.ndarray], n: int, lengths: np.ndarray) -> tuple[str, np.ndarray]:
+    """The text of the ``n`` columns of :func:`_stack` of ``blocks``, column after column,
+    0 bytes dropped, and the ``(n + 1,)`` offsets of each column's text (``lengths``: the
+    number of nonzero bytes of each column)."""
     offsets = np.zeros(n + 1, dtype=np.int64)
     np.cumsum(lengths, out=offsets[1:])
-    return columns.T.tobytes().translate(None, b"\0").decode("ascii"), offsets
+    return _stack(blocks, n).T.tobytes().translate(None, b"\0").decode("ascii"), offsets
 
 
 def _text_table(texts: list[str]) -> np.ndarray:
@@ -188,9 +207,9 @@ def _text_table(texts: list[str]) -> np.ndarray:
     return np.frombuffer(padded, dtype=np.uint8).reshape(len(texts), width).T
 
 
-def _literal(text: str, n: int) -> np.ndarray:
-    """The bytes of ``text`` repeated in ``n`` columns, ``(len(text), n)`` uint8."""
-    return np.broadcast_to(np.frombuffer(text.encode("ascii"), dtype=np.uint8)[:, None], (len(text), n))
+def _literal(text: str) -> np.ndarray:
+    """The bytes of ``text`` as a ``(len(text), 1)`` uint8 block (the same in every column)."""
+    return np.frombuffer(text.encode("ascii"), dtype=np.uint8)[:, None]
 
 
 def format_moves(x: np.ndarray, y: np.ndarray, e: np.ndarray) -> tuple[str, np.ndarray]:
@@ -229,15 +248,25 @@ def format_bodies(paths: list[Path], filament_area: float) -> PathBodies:
     """The moves of ``paths`` in bulk (E per segment from the bead area, rounding error
     diffused along each path; see the module notes). ``filament_area`` in mm^2."""
     arrays, closed, widths, heights = zip(*map(attrgetter("points", "closed", "width", "height"), paths))
-    n = len(paths)
-    sizes = np.fromiter(map(len, arrays), dtype=np.int64, count=n)
-    closed = np.array(closed, dtype=bool)
+    sizes = np.fromiter(map(len, arrays), dtype=np.int64, count=len(paths))
+    return format_packed(np.concatenate(arrays), sizes, np.array(closed, dtype=bool), np.array(widths),
+                         np.array(heights), filament_area)
+
+
+def format_packed(
+    points: np.ndarray, sizes: np.ndarray, closed: np.ndarray, widths: np.ndarray, heights: np.ndarray,
+    filament_area: float,
+) -> PathBodies:
+    """:func:`format_bodies` of paths given as columns: ``points`` ``(P, 2)`` mm, one path
+    after another, ``sizes`` ``(n,)`` points per path, ``closed``, ``widths`` and
+    ``heights`` (mm) ``(n,)``; ``filament_area`` mm^2."""
+    n = len(sizes)
     counts = sizes + closed  # a closed path's vertices end at its first point again
     first = np.zeros(n + 1, dtype=np.int64)
     np.cumsum(counts, out=first[1:])
     source = np.repeat(np.cumsum(sizes) - sizes - first[:-1], counts) + np.arange(first[-1])
     source[first[1:][closed] - 1] = source[first[:-1][closed]]
-    pts = np.round(np.concatenate(arrays)[source], 3) + 0.0
+    pts = np.round(points[source], 3) + 0.0
     seg = np.hypot(*np.diff(pts, axis=0).T)
     inside = np.ones(len(seg), dtype=bool)
     inside[first[1:-1] - 1] = False
@@ -248,7 +277,7 @@ def format_bodies(paths: list[Path], filament_area: float) -> PathBodies:
     np.cumsum(n_moves, out=row_start[1:])
 
     lengths = seg[moves]
-    exact = np.cumsum(lengths * (bead_area(np.array(widths), np.array(heights)) / filament_area)[move_path])
+    exact = np.cumsum(lengths * (bead_area(widths, heights) / filament_area)[move_path])
     exact -= np.concatenate([[0.0], exact])[row_start[:-1]][move_path]
     rounded = np.round(exact, 5)
     e = np.diff(rounded, prepend=0.0)
@@ -278,12 +307,20 @@ def format_bodies(paths: list[Path], filament_area: float) -> PathBodies:
 
 
 def prepare_bodies(plan: LayerPlan, settings: Settings) -> None:
-    """Format the moves of ``plan``'s paths now (in a per-layer worker) and attach them as
-    ``plan.prepared``, so that :meth:`GcodeWriter.write_layer` only joins texts."""
-    paths = plan.paths
-    if paths:
-        bodies = format_bodies(paths, np.pi * settings.filament_diameter**2 / 4.0)
-        plan.prepared = Prepared(dict(zip(paths, range(len(paths)))), bodies)
+    """Format the moves of ``plan``'s paths now (in a per-layer worker) and attach them, so
+    that :meth:`GcodeWriter.write_layer` only joins texts: the plan is packed into columns
+    (:meth:`LayerPlan.pack`, as it would be to leave the worker) whose rows are its paths'
+    :class:`PathBodies`; a plan that cannot be packed gets them as ``plan.prepared``."""
+    area = np.pi * settings.filament_diameter**2 / 4.0
+    packed = plan.pack()
+    if packed is None:
+        paths = plan.paths
+        if paths:
+            plan.prepared = Prepared(dict(zip(paths, range(len(paths)))), format_bodies(paths, area))
+    elif len(packed.roles):
+        packed.data = format_packed(packed.points, np.diff(packed.offsets).astype(np.int64), packed.closed,
+                                    packed.widths, packed.heights, area)
+        packed.rows = np.arange(len(packed.roles), dtype=np.int32)
 
 
 def fill_placeholders(text: str, values: dict[str, str], what: str) -> str:
@@ -442,6 +479,7 @@ class GcodeWriter:
         self._colors_used: set[int] = set()
         self._made: dict[tuple, tuple] = {}  # bodies formatted here, by geometry (purge lines repeat)
         self._type_table = _text_table(TYPE_LINES)
+        self._feed_tables: dict[bool, tuple[np.ndarray, np.ndarray]] = {}
 
     # -- header ---------------------------------------------------------------------
     def write_header(self) -> None:
@@ -537,15 +575,20 @@ class GcodeWriter:
             text = self._state_texts[color] = "\n".join(self.dialect.state_commands(color)) + "\n"
         return text
 
-    def _feeds(self, role_codes: np.ndarray, layer_index: int) -> np.ndarray:
-        """Print speed (mm/s) of paths of roles ``ROLES[role_codes]`` on layer ``layer_index``."""
+    def _feeds(self, first_layer: bool) -> tuple[np.ndarray, np.ndarray]:
+        """Print speed (mm/s) of each role (:data:`ROLES`) on the first or any other layer,
+        and the :func:`_text_table` of their ``G1 F`` lines (last column empty)."""
+        known = self._feed_tables.get(first_layer)
+        if known is not None:
+            return known
         s = self.settings
-        if layer_index == 0:
-            return np.full(len(role_codes), s.first_layer_speed)
-        by_role = np.full(len(ROLES), s.print_speed)
-        by_role[ROLE_CODE[Role.EXTERNAL_PERIMETER]] = s.outer_wall_speed
-        by_role[ROLE_CODE[Role.INTERNAL_INFILL]] = s.infill_speed
-        return by_role[role_codes]
+        by_role = np.full(len(ROLES), s.first_layer_speed if first_layer else s.print_speed)
+        if not first_layer:
+            by_role[ROLE_CODE[Role.EXTERNAL_PERIMETER]] = s.outer_wall_speed
+            by_role[ROLE_CODE[Role.INTERNAL_INFILL]] = s.infill_speed
+        known = self._feed_tables[first_layer] = (
+            by_role, _text_table([f"G1 F{fmt(f * 60, 1)}\n" for f in by_role.tolist()] + [""]))
+        return known
 
     def _retract_line(self, sign: int = -1) -> str:
         """``G1 E-<retract_length>`` (``sign`` -1) or the un-retraction (``sign`` 1)."""
@@ -630,7 +673,8 @@ class GcodeWriter:
         starts, last = bodies.start[rows], bodies.end[rows]
 
         codes = layer.codes[printed]
-        feeds = self._feeds(codes, layer_index)
+        by_role, feed_table = self._feeds(layer_index == 0)
+        feeds = by_role[codes]
         prev = np.vstack([[np.nan, np.nan] if self._pos is None else [self._pos], last[:-1]])
         unknown = np.isnan(prev[:, 0])
         if self.dialect.moves_head:
@@ -651,7 +695,7 @@ class GcodeWriter:
             starts, travel, retract, hop, retracted,
             np.where(codes != before_code, codes, len(ROLES)),
             _choices(widths, new_width, lambda w: f";WIDTH:{fmt(w, 4)}\n"),
-            _choices(feeds, new_feed, lambda f: f"G1 F{fmt(f * 60, 1)}\n"),
+            (feed_table, np.where(new_feed, codes, len(ROLES))),
         )
         pieces = [""] * (2 * n)
         heads = cuts.tolist()
@@ -695,21 +739,20 @@ class GcodeWriter:
         """What goes before each of ``n`` paths, as one text and ``(n + 1,)`` offsets:
         retraction, lift, travel to ``starts`` (mm), lowering, un-retraction where the
         ``(n,)`` masks say, the ``;TYPE:`` line of ``type_codes`` (``len(ROLES)``: none),
-        then the width and feed lines (``(table, codes)`` of :func:`_choices`)."""
+        then the width and feed lines (``(table, codes)``, as :func:`_choices` gives)."""
         s = self.settings
         n = len(starts)
         lift = f"G1 Z{fmt(self._z + s.z_hop, 3)} F{fmt(s.z_speed * 60, 1)}\n"
         lower = f"G1 Z{fmt(self._z, 3)} F{fmt(s.z_speed * 60, 1)}\n"
         retract_line, unretract_line = self._retract_line(), self._retract_line(1)
-        travel_end = f" F{fmt(s.travel_speed * 60, 1)}\n"
-        blocks = [_literal(retract_line, n) * retract, _literal(lift, n) * hop]
-        lengths = retract * len(retract_line) + hop * (len(lift) + len(lower)) + retracted * len(unretract_line)
-        for text, values in (("G0 X", starts[:, 0]), (" Y", starts[:, 1])):
-            number, size = _number_block(values, 3)
-            blocks += [_literal(text, n) * travel, *(block * travel for block in number)]
-            lengths += travel * (size + len(text))
-        lengths += travel * len(travel_end)
-        blocks += [_literal(travel_end, n) * travel, _literal(lower, n) * hop, _literal(unretract_line, n) * retracted]
+        moves, move_lengths = _line_blocks([("G0 X", starts[:, 0], 3), (" Y", starts[:, 1], 3)],
+                                           f" F{fmt(s.travel_speed * 60, 1)}\n")
+        moves = _stack(moves, n)
+        moves *= travel
+        blocks = [_literal(retract_line) * retract, _literal(lift) * hop, moves, _literal(lower) * hop,
+                  _literal(unretract_line) * retracted]
+        lengths = (retract * len(retract_line) + hop * (len(lift) + len(lower)) + retracted * len(unretract_line)
+                   + travel * move_lengths)
         for table, codes in ((self._type_table, type_codes), width_lines, feed_lines):
             blocks.append(table[:, codes])
             lengths += np.count_nonzero(table, axis=0)[codes]

@@ -39,6 +39,7 @@ Step = Union[SetState, Path]
 
 ROLES = tuple(Role)
 ROLE_CODE = {role: k for k, role in enumerate(ROLES)}
+_ROLE_CODE_BY_ID = {id(role): k for role, k in ROLE_CODE.items()}  # hashing an Enum member runs Python code
 
 #: :attr:`PackedSteps.kind` of a step: a path of the columns, a SetState, an extra path.
 PACKED, STATE, EXTRA = 0, 1, 2
@@ -176,6 +177,18 @@ class LayerPlan:
         self.packed = None
         return self.__dict__[name]
 
+    def pack(self) -> PackedSteps | None:
+        """Hold the steps as columns from now on, as a plan received from a worker does
+        (``steps`` and ``prepared`` are dropped and rebuilt on access); returns the columns,
+        or None (plan unchanged) when a step is neither a :class:`Path` nor a :class:`SetState`."""
+        if self.packed is not None:
+            return self.packed
+        if not {s.__class__ for s in self.steps} <= {Path, SetState}:
+            return None
+        self.packed = pack_steps(self.steps, self.prepared)
+        del self.steps, self.prepared
+        return self.packed
+
     @property
     def paths(self) -> list[Path]:
         """The extrusion paths of this layer, in printing order."""
@@ -210,7 +223,7 @@ def pack_steps(steps: list[Step], prepared: Prepared | None) -> PackedSteps:
         columns = (
             points,
             np.concatenate([[0], np.cumsum(sizes)]).astype(np.int32),
-            np.fromiter(map(ROLE_CODE.__getitem__, roles), dtype=np.int8, count=n),
+            np.fromiter(map(_ROLE_CODE_BY_ID.__getitem__, map(id, roles)), dtype=np.int8, count=n),
             np.array(colors, dtype=np.int32),
             np.array(widths, dtype=np.float64),
             np.array(heights, dtype=np.float64),
