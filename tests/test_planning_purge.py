@@ -156,3 +156,16 @@ def test_a_layer_with_more_changes_than_planned_is_refused():
     tower = PurgeTower.plan(FOOTPRINT, Settings(), changes_per_layer=2, n_layers=3)
     with pytest.raises(ValueError, match="sized for 2"):
         list(insert_purges(iter(layer_plans(1)), tower, Settings(), PALETTE))
+
+
+def test_layers_with_the_same_changes_share_their_tower_paths():
+    settings = Settings(melt_volume_mm3=20.0)
+    tower = PurgeTower.plan(FOOTPRINT, settings, changes_per_layer=4, n_layers=6)
+    stats = PurgeStats()
+    out = list(insert_purges(iter(layer_plans(6)), tower, settings, PALETTE, stats))
+    tower_paths = [[p for p in plan.paths if p.role is Role.WIPE_TOWER] for plan in out]
+    # layers 2 and 4 start in the same state and change through the same colors
+    assert len(tower_paths[2]) == len(tower_paths[4]) > 1
+    assert all(a is b for a, b in zip(tower_paths[2], tower_paths[4]))
+    volume = sum(p.length * bead_area(p.width, p.height) for paths in tower_paths for p in paths)
+    assert stats.tower_mm3 == pytest.approx(volume, rel=1e-12)

@@ -478,6 +478,7 @@ class GcodeWriter:
         self._skipped_paths = 0
         self._colors_used: set[int] = set()
         self._made: dict[tuple, tuple] = {}  # bodies formatted here, by geometry (purge lines repeat)
+        self._made_paths: dict[Path, tuple] = {}  # the same, by path (purge towers reuse their paths)
         self._type_table = _text_table(TYPE_LINES)
         self._feed_tables: dict[bool, tuple[np.ndarray, np.ndarray]] = {}
 
@@ -597,8 +598,8 @@ class GcodeWriter:
 
     def _bodies(self, layer: "_LayerPaths") -> tuple[PathBodies, np.ndarray, str]:
         """The bodies of the layer's paths: the prepared ones, the others formatted now
-        (all in bulk when none is prepared; else one by one, reused by geometry from
-        ``_made``: purge lines repeat from layer to layer); returns the bodies, each
+        (all in bulk when none is prepared; else one by one, reused by path or by
+        geometry: purge lines repeat from layer to layer); returns the bodies, each
         path's row in them and the text the rows' bounds index."""
         rows, data = layer.rows, layer.data
         if data is None:
@@ -607,19 +608,23 @@ class GcodeWriter:
         missing = np.flatnonzero(rows < 0)
         if not len(missing):
             return data, rows, data.text
-        made = self._made
-        if len(made) > MADE_BODIES:
+        made, by_path = self._made, self._made_paths
+        if len(made) > MADE_BODIES or len(by_path) > MADE_BODIES:
             made.clear()
-        keys = [(p.points.tobytes(), p.closed, p.width, p.height) for p in layer.missing]
-        new = {k: p for k, p in zip(keys, layer.missing) if k not in made}
-        if new:
-            fresh = format_bodies(list(new.values()), self.filament_area)
-            cuts = fresh.bounds.tolist()
-            columns = zip(fresh.start.tolist(), fresh.end.tolist(), fresh.low.tolist(), fresh.high.tolist(),
-                          fresh.e.tolist(), fresh.length.tolist())
-            for key, a, b, row in zip(new, cuts[:-1], cuts[1:], columns):
-                made[key] = (fresh.text[a:b], *row)
-        texts, start, end, low, high, e, length = zip(*map(made.__getitem__, keys))
+            by_path.clear()
+        todo = [p for p in layer.missing if p not in by_path]
+        if todo:
+            keys = [(p.points.tobytes(), p.closed, p.width, p.height) for p in todo]
+            new = {k: p for k, p in zip(keys, todo) if k not in made}
+            if new:
+                fresh = format_bodies(list(new.values()), self.filament_area)
+                cuts = fresh.bounds.tolist()
+                columns = zip(fresh.start.tolist(), fresh.end.tolist(), fresh.low.tolist(), fresh.high.tolist(),
+                              fresh.e.tolist(), fresh.length.tolist())
+                for key, a, b, row in zip(new, cuts[:-1], cuts[1:], columns):
+                    made[key] = (fresh.text[a:b], *row)
+            by_path.update(zip(todo, map(made.__getitem__, keys)))
+        texts, start, end, low, high, e, length = zip(*map(by_path.__getitem__, layer.missing))
         sizes = np.fromiter(map(len, texts), dtype=np.int64, count=len(texts))
         old = data
         rows = rows.copy()

@@ -47,6 +47,9 @@ SPARSE_SPACING_MM = 2.0
 ASPECTS = (1.0, 2.0, 0.5, 4.0, 0.25)
 #: Color of paths printed in "whatever state the printer is in".
 CURRENT_STATE = -1
+#: Tower paths :func:`insert_purges` keeps for reuse on later layers (the same slot, length,
+#: color and height make the same path).
+MADE_PATHS = 4096
 
 
 def purge_length(melt_volume_mm3: float, bead_width: float, layer_height: float) -> float:
@@ -255,6 +258,7 @@ def insert_purges(
         return
     centers = np.asarray(palette.centers, dtype=np.float64)
     state: int | None = None
+    made: dict[tuple, tuple[Path, float]] = {}  # tower paths and volumes by what makes them: layers repeat them
     for plan in plans:
         if plan.index >= tower.n_layers:
             raise ValueError(f"layer {plan.index} is above the {tower.n_layers} layers the tower was planned for")
@@ -272,13 +276,20 @@ def insert_purges(
             raise ValueError(
                 f"layer {plan.index} has {changes} state changes; the tower was sized for {tower.changes_per_layer}"
             )
-        base = tower.base_paths(changes, CURRENT_STATE if state is None else state, plan.height)
+        if len(made) > MADE_PATHS:
+            made.clear()
+        base_key = ("base", changes, CURRENT_STATE if state is None else state, plan.height)
+        if base_key not in made:
+            paths = tower.base_paths(*base_key[1:])
+            made[base_key] = (paths, float(_volumes(paths).sum()))
+        base, base_volume = made[base_key]
         # the new order: ranges (a, b) of the plan's steps and lists of tower paths
         ends = marks + [n_steps]
         pieces: list[tuple[int, int] | list[Path]] = [(0, ends[0])]
         if not marks:
             pieces.append(base)
         purges: list[Path] = []
+        purge_volumes: list[float] = []
         for k, (i, color) in enumerate(zip(marks, colors)):
             if k == 0:
                 pieces.append(base)
@@ -287,15 +298,21 @@ def insert_purges(
                 length = purge_length(settings.melt_volume_mm3, tower.line_width, plan.height)
                 if settings.purge_scale_by_change and state is not None:
                     length *= float(np.max(np.abs(centers[color] - centers[state])))
-                purges.append(tower.purge_path(len(purges), length, color, plan.height))
-                pieces.append(purges[-1:])
+                key = (len(purges), length, color, plan.height)
+                if key not in made:
+                    path = tower.purge_path(*key)
+                    made[key] = (path, float(_volumes([path])[0]))
+                path, volume = made[key]
+                purges.append(path)
+                purge_volumes.append(volume)
+                pieces.append([path])
                 state = color
             pieces.append((i + 1, ends[k + 1]))
-        volumes = _volumes(purges + base)
-        stats.purge_mm3 += float(volumes[: len(purges)].sum())
+        purge_volume = float(np.sum(purge_volumes))
+        stats.purge_mm3 += purge_volume
         stats.changes += len(purges)
-        stats.tower_base_mm3 += float(volumes[len(purges) :].sum())
-        stats.extruded_mm3 += float(volumes.sum()) + _plan_volume(plan)
+        stats.tower_base_mm3 += base_volume
+        stats.extruded_mm3 += purge_volume + base_volume + _plan_volume(plan)
         if packed is not None:
             yield LayerPlan.from_packed(plan.index, plan.z, plan.height, _packed_with(packed, pieces))
         else:
