@@ -177,10 +177,6 @@ class _Dense:
         """Number of sub-segments."""
         return int(self.offset[-1] + self.count[-1])
 
-    def piece_of(self) -> np.ndarray:
-        """The piece of every sub-segment (for looking up many of them)."""
-        return np.repeat(np.arange(len(self.count)), self.count)
-
     def locate(self, i: np.ndarray) -> _Sub:
         """Attributes of sub-segments ``i``."""
         p = np.searchsorted(self.offset, i, side="right") - 1
@@ -331,17 +327,17 @@ def cut_by_color(paths: list[Path], field, palette, z: float, layer_index: int, 
     last_sub = np.concatenate((first_sub[1:], [dense.size])) - 1
     color_change = _changes(color, first_sub)
     label, label_change = color, color_change
-    band = np.flatnonzero(neighbor >= 0) if beta > 0 else np.empty(0, dtype=np.int64)
-    if len(band):
-        piece = dense.piece_of()[band]
+    if beta > 0 and (neighbor >= 0).any():
+        in_band = neighbor >= 0
+        loop = np.flatnonzero(in_band & np.repeat(lines.closed[dense.pid], dense.count))
+        at = np.minimum(np.searchsorted(first_sub, loop), len(paths) - 1)
+        run_start = (loop == 0) | ~in_band[loop - 1] | (first_sub[at] == loop)
+        piece = np.searchsorted(dense.offset, loop, side="right") - 1
         length = dense.length[piece]
-        arc_mid = dense.arc0[piece] + length * (band - dense.offset[piece] + 0.5)
-        at = np.minimum(np.searchsorted(first_sub, band), len(paths) - 1)
-        run_start = np.concatenate(([True], np.diff(band) != 1)) | (first_sub[at] == band)
-        label = color.copy()
-        label[band] = zipper_labels(
-            color[band], neighbor[band], run_start, dense.segment[piece], arc_mid, length,
-            lines.closed[dense.pid[piece]], layer_index, tooth_length(w, settings.min_segment_mm),
+        arc_mid = dense.arc0[piece] + length * (loop - dense.offset[piece] + 0.5)
+        label = zipper_labels(
+            color, neighbor, np.repeat(dense.segment, dense.count), loop, run_start, arc_mid, length,
+            layer_index, tooth_length(w, settings.min_segment_mm),
         )
         label_change = _changes(label, first_sub)
 

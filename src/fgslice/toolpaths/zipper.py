@@ -28,39 +28,37 @@ def tooth_length(width: float, min_segment_mm: float) -> float:
 def zipper_labels(
     color: np.ndarray,
     neighbor: np.ndarray,
-    run_start: np.ndarray,
     segment: np.ndarray,
-    arc_mid: np.ndarray,
-    sub_length: np.ndarray,
-    closed: np.ndarray,
+    loop: np.ndarray,
+    loop_run_start: np.ndarray,
+    loop_arc_mid: np.ndarray,
+    loop_length: np.ndarray,
     layer_index: int,
     tooth: float,
 ) -> np.ndarray:
-    """Zipper colors of the densified sub-segments that lie in bands (in path order).
+    """Colors of a layer's densified sub-segments (in path order) with zippers applied:
+    the field color outside bands, the alternating tooth colors inside.
 
     Args:
-        color: field color at each in-band sub-segment's midpoint.
-        neighbor: ``palette.zipper_neighbor`` there (>= 0).
-        run_start: True where a stretch of consecutive in-band sub-segments of a path
-            begins (at the path's start or after a sub-segment outside every band).
+        color: field color at each sub-segment's midpoint.
+        neighbor: ``palette.zipper_neighbor`` there (-1 outside every band).
         segment: index of the original path segment each sub-segment comes from.
-        arc_mid: arc length of the sub-segment midpoint along its path, mm.
-        sub_length: length of each sub-segment, mm.
-        closed: whether each sub-segment's path is closed.
+        loop: the in-band sub-segments that lie on closed paths (ascending indices).
+        loop_run_start: for each of ``loop``, True where a stretch of consecutive in-band
+            sub-segments of a path begins (at the path's start or after a sub-segment
+            outside every band).
+        loop_arc_mid: for each of ``loop``, arc length of its midpoint along its path, mm.
+        loop_length: for each of ``loop``, its length, mm.
         layer_index: the layer's index (parity shifts the alternation).
         tooth: tooth length along closed paths, mm.
     """
     parity = (segment >> 1) + layer_index
-    loop = np.flatnonzero(closed)
     if len(loop):
-        start = run_start[loop]
-        length = sub_length[loop]
-        run = np.cumsum(start) - 1
-        first = loop[start]
-        run_start_arc = arc_mid[first] - sub_length[first] / 2
-        run_length = np.bincount(run, weights=length)
+        run = np.cumsum(loop_run_start) - 1
+        run_start_arc = (loop_arc_mid - loop_length / 2)[loop_run_start]
+        run_length = np.bincount(run, weights=loop_length)
         teeth = np.maximum(np.round(run_length / tooth), 1.0)
-        along = np.floor((arc_mid[loop] - run_start_arc[run]) / (run_length / teeth)[run]).astype(np.int64)
+        along = np.floor((loop_arc_mid - run_start_arc[run]) / (run_length / teeth)[run]).astype(np.int64)
         parity[loop] = along + layer_index
     lo = np.minimum(color, neighbor)
-    return np.where(parity & 1, color + neighbor - lo, lo)
+    return np.where(neighbor >= 0, np.where(parity & 1, color + neighbor - lo, lo), color)
