@@ -274,7 +274,7 @@ class _Events:
         self.role_index: dict[str, int] = {}
         self.layer_z: list[float] = []
         self.states: list[MachineState] = []
-        self.state_index: dict[MachineState, int] = {}
+        self.state_index: dict[tuple, int] = {}  # MachineState fields -> index
         self.layer = -1
         self.role = -1
         self.width = math.nan
@@ -302,11 +302,11 @@ class _Events:
         self.after: list[tuple[int, int, int, float]] = [(self.layer, self.role, self.state, self.width)]
 
     def _state(self) -> int:
-        s = MachineState(self.mix, self.tool, self.temps.get(self.tool), self.flow.get(self.tool, 100.0), self.color)
-        idx = self.state_index.get(s)
+        key = (self.mix, self.tool, self.temps.get(self.tool), self.flow.get(self.tool, 100.0), self.color)
+        idx = self.state_index.get(key)
         if idx is None:
-            idx = self.state_index[s] = len(self.states)
-            self.states.append(s)
+            idx = self.state_index[key] = len(self.states)
+            self.states.append(MachineState(*key))
         return idx
 
     def _params(self, words: list[str], num: int) -> dict[str, float]:
@@ -410,9 +410,12 @@ class _Events:
             self.unknown.append(num)
 
     def record(self, num: int) -> None:
-        """Remember the layer, role, state and width in force after line ``num``."""
-        self.lines.append(num)
-        self.after.append((self.layer, self.role, self.state, self.width))
+        """Remember the layer, role, state and width in force after line ``num`` if they
+        changed there."""
+        now = (self.layer, self.role, self.state, self.width)
+        if now != self.after[-1]:
+            self.lines.append(num)
+            self.after.append(now)
 
 
 def _eight_digits(v: np.ndarray) -> np.ndarray:
@@ -717,13 +720,15 @@ class _Reader:
 
         events = self.events
         events.begin_chunk()
-        for i in np.flatnonzero(~(is_move | empty | plain_comment)).tolist():
-            raw = data[first[i] : ends[i]].decode("utf-8", errors="replace").rstrip()
+        interpreted = np.flatnonzero(~(is_move | empty | plain_comment))
+        for i, a, b in zip((interpreted + (offset + 1)).tolist(), first[interpreted].tolist(),
+                           ends[interpreted].tolist()):
+            raw = data[a:b].decode("utf-8", errors="replace").rstrip()
             if raw.startswith(";"):
-                events.comment(raw, offset + i + 1)
+                events.comment(raw, i)
             else:
-                events.command(raw, offset + i + 1)
-            events.record(offset + i + 1)
+                events.command(raw, i)
+            events.record(i)
 
         move_lines = np.flatnonzero(is_move)
         n_rows = len(move_lines)
@@ -758,20 +763,22 @@ class _Reader:
         if arcs.any():
             length[arcs] = _arc_lengths(start[arcs], end[arcs], axis["I"][arcs], axis["J"][arcs], axis["R"][arcs],
                                         code[arcs] == 2)
-        moved = ~(np.isnan(axis["X"]) & np.isnan(axis["Y"]) & np.isnan(axis["Z"]) & np.isnan(axis["E"]))
-        after = np.array(events.after, dtype=float)
-        per_move = after[np.searchsorted(np.array(events.lines, dtype=np.int64), move_numbers[moved])]
+        moved = np.flatnonzero(~np.isnan(table[:4]).all(axis=0))  # rows with X, Y, Z or E
+        changed = np.zeros(n_lines, dtype=np.int64)
+        changed[np.array(events.lines, dtype=np.int64) - (offset + 1)] = 1
+        recorded = np.cumsum(changed)[move_lines[moved]]  # index into events.after of each move
+        layer, role, state, width = np.array(events.after, dtype=float).T
         return GcodeProgram(
-            start=start[moved],
-            end=end[moved],
+            start=start.take(moved, axis=0),
+            end=end.take(moved, axis=0),
             e=de[moved],
             feed=feed[moved],
             length=length[moved],
             line=move_numbers[moved],
-            layer=per_move[:, 0].astype(np.int64),
-            role=per_move[:, 1].astype(np.int64),
-            state=per_move[:, 2].astype(np.int64),
-            width=per_move[:, 3],
+            layer=layer.astype(np.int64)[recorded],
+            role=role.astype(np.int64)[recorded],
+            state=state.astype(np.int64)[recorded],
+            width=width[recorded],
             roles=events.roles,
             states=events.states,
             layer_z=events.layer_z,
