@@ -181,10 +181,12 @@ def _blocks(stream: BinaryIO, name: str | None) -> Iterator[bytes]:
         yield block
 
 
-def _line_chunks(blocks: Iterable[bytes], name: str | None, chunk_lines: int) -> Iterator[bytes]:
+def _line_chunks(blocks: Iterable[bytes], name: str | None,
+                 chunk_lines: int) -> Iterator[tuple[bytes, np.ndarray]]:
     """The text of ``blocks`` (bytes split anywhere) in pieces of whole lines: at most
     ``chunk_lines`` lines, and at most one block unless a single line is longer. Only the
-    last piece may lack its final newline.
+    last piece may lack its final newline. Each piece comes with the offsets of its
+    newlines.
 
     Raises:
         GcodeError: the text starts with binary data.
@@ -203,14 +205,17 @@ def _line_chunks(blocks: Iterable[bytes], name: str | None, chunk_lines: int) ->
         if not len(newlines):
             rest = data
             continue
-        cuts = [0, *(newlines[chunk_lines - 1 :: chunk_lines] + 1).tolist()]
-        if cuts[-1] != newlines[-1] + 1:
-            cuts.append(int(newlines[-1]) + 1)
-        for a, b in zip(cuts[:-1], cuts[1:]):
-            yield data[a:b]
-        rest = data[cuts[-1] :]
+        last = list(range(chunk_lines - 1, len(newlines), chunk_lines))  # each piece's last newline
+        if not last or last[-1] != len(newlines) - 1:
+            last.append(len(newlines) - 1)
+        a, k = 0, 0
+        for j in last:
+            b = int(newlines[j]) + 1
+            yield data[a:b], newlines[k : j + 1] - a
+            a, k = b, j + 1
+        rest = data[a:]
     if rest:
-        yield rest
+        yield rest, np.zeros(0, dtype=np.int64)
 
 
 _TOKEN_WIDTH = 16
@@ -696,11 +701,11 @@ class _Reader:
                 homed = words & set("XYZ") or set("XYZ")
                 self.pos = np.array([0.0 if a in homed else self.pos[i] for i, a in enumerate("XYZ")])
 
-    def chunk(self, data: bytes) -> GcodeProgram:
-        """The moves and events of ``data`` (whole lines following the previous chunk)."""
+    def chunk(self, data: bytes, newlines: np.ndarray) -> GcodeProgram:
+        """The moves and events of ``data`` (whole lines following the previous chunk),
+        whose newlines are at ``newlines``."""
         offset = self.line_count
         buf = np.frombuffer(data, dtype=np.uint8)
-        newlines = np.flatnonzero(buf == 10)
         ends = newlines if buf[-1] == 10 else np.append(newlines, len(buf))
         starts = np.concatenate([[0], newlines + 1])[: len(ends)]
         n_lines = len(ends)
@@ -831,9 +836,9 @@ def iter_gcode_blocks(blocks: Iterable[bytes], *, chunk_lines: int = CHUNK_LINES
     reader = _Reader()
     blank = True
     moves = 0
-    for data in _line_chunks(blocks, name, chunk_lines):
+    for data, newlines in _line_chunks(blocks, name, chunk_lines):
         blank = blank and data.isspace()
-        program = reader.chunk(data)
+        program = reader.chunk(data, newlines)
         moves += len(program.e)
         yield program
     if blank:

@@ -119,7 +119,8 @@ class _Verifier:
     def _check_volume(self, program: GcodeProgram) -> None:
         settings = self.settings
         limits = np.array([settings.bed_x, settings.bed_y, settings.max_z])
-        bad = ((program.end < -BED_TOLERANCE_MM) | (program.end > limits + BED_TOLERANCE_MM)).any(axis=1)
+        out = (program.end < -BED_TOLERANCE_MM) | (program.end > limits + BED_TOLERANCE_MM)
+        bad = out[:, 0] | out[:, 1] | out[:, 2]
 
         def describe(i: int) -> str:
             x, y, z = program.end[i]
@@ -132,8 +133,7 @@ class _Verifier:
         settings = self.settings
         area = np.pi * settings.filament_diameter**2 / 4.0
         moving = program.length > 0
-        section = np.zeros(len(program.e))
-        section[moving] = program.e[moving] * area / program.length[moving]
+        section = np.divide(program.e * area, program.length, out=np.zeros(len(program.e)), where=moving)
         too_wide = moving & (section > settings.max_cross_section_mm2)
         allowance = PRIME_ALLOWANCE_MM + settings.retract_length
         blob = ~moving & (program.e > allowance)
