@@ -504,25 +504,58 @@ def _parse_short(words: np.ndarray, begin: np.ndarray) -> tuple[np.ndarray, np.n
     by ``10**(8 - point)`` (both exact in float64) gives the correctly rounded value, the
     same as ``float(text)``."""
     word = words[begin]
-    d = word ^ _ZERO_CHARS
-    non_digit = (((d & _LOW_BITS) + _DIGIT_LIMIT) | d) & _HIGH_BITS
-    e = d ^ _POINT_XOR
-    point = ~(((e & _LOW_BITS) + _LOW_BITS) | e) & _HIGH_BITS
-    c0 = word & _BYTE
-    negative = c0 == 45
-    sign = (negative | (c0 == 43)).astype(np.uint64) * _BYTE
-    below_end = _below_lowest(non_digit & ~point & ~(sign & _HIGH_BITS))
-    length = (np.bitwise_count(below_end) >> 3).astype(np.int64)
+    d = word ^ _ZERO_CHARS  # the operations below work in place to keep few temporaries
+    non_digit = d & _LOW_BITS
+    non_digit += _DIGIT_LIMIT
+    non_digit |= d
+    non_digit &= _HIGH_BITS
+    scratch = d ^ _POINT_XOR
+    point = scratch & _LOW_BITS
+    point += _LOW_BITS
+    point |= scratch
+    np.invert(point, out=point)
+    point &= _HIGH_BITS
+    word &= _BYTE
+    negative = word == 45
+    sign = (word == 43) | negative
+    sign = sign.view(np.uint8).astype(np.uint64)
+    sign *= _BYTE
+    end = non_digit | point
+    end ^= point  # the bytes that are neither digits nor a point
+    np.bitwise_and(sign, _HIGH_BITS, out=scratch)
+    end |= scratch
+    end ^= scratch  # ... nor a leading sign
+    below_end = end - _ONE
+    np.invert(end, out=end)
+    below_end &= end
+    length = np.bitwise_count(below_end)
+    length >>= 3
     live = below_end >> _SEVEN
-    points = point & live
-    below_point = _below_lowest(points) >> _SEVEN
-    at = np.minimum(np.bitwise_count(below_point) >> 3, length)
-    digits = d & live & ~sign
-    digits = (digits & below_point) | ((digits >> _EIGHT) & ~below_point)
-    valid = (length < 8) & ((points & (points - _ONE)) == 0) & ((~non_digit & live & _HIGH_BITS) != 0)
-    values = _eight_digits(digits) / _POW10[8 - at]
+    point &= live
+    below_point = point - _ONE
+    valid = (below_point & point) == 0  # at most one point
+    np.invert(point, out=scratch)
+    below_point &= scratch
+    below_point >>= _SEVEN
+    at = np.bitwise_count(below_point)
+    at >>= 3
+    np.minimum(at, length, out=at)
+    np.invert(sign, out=sign)
+    live &= sign
+    d &= live
+    shifted = d >> _EIGHT
+    d &= below_point
+    np.invert(below_point, out=below_point)
+    shifted &= below_point
+    d |= shifted
+    valid &= length < 8
+    np.invert(non_digit, out=non_digit)
+    non_digit &= live
+    non_digit &= _HIGH_BITS
+    valid &= non_digit != 0  # at least one digit
+    values = _eight_digits(d) / _POW10[8 - at.astype(np.int64)]
     np.negative(values, out=values, where=negative)
-    return values, valid, length
+    return values, valid, length.astype(np.int64)
 
 
 def _parse_numbers(padded: np.ndarray, begin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
