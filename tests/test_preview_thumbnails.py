@@ -112,3 +112,21 @@ def test_thumbnail_from_sections_matches_the_exact_signed_distance_render():
     a, b = exact[..., 3] > 0.5, from_sections[..., 3] > 0.5
     assert a.sum() > 5000
     assert (a == b).mean() > 0.97
+
+
+def test_thumbnails_do_not_depend_on_how_fast_the_design_evaluates():
+    """The same design gives the same PNG bytes however long its signed distance takes
+    (a loaded machine, or the thumbnail process running beside the slicing workers)."""
+    import time
+
+    class Slow:
+        """GRADIENT with a signed distance that takes 10 ms a call."""
+
+        def __getattr__(self, name):
+            return getattr(GRADIENT, name)
+
+        def sdf(self, x, y, z):
+            time.sleep(0.01)
+            return GRADIENT.sdf(x, y, z)
+
+    assert thumbnail_png(Slow(), 48, 32) == thumbnail_png(GRADIENT, 48, 32)

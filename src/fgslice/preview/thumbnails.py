@@ -23,7 +23,6 @@ from __future__ import annotations
 import io
 import math
 import re
-import time
 
 import numpy as np
 import shapely
@@ -37,8 +36,6 @@ ELEVATION_DEG = 30.0
 GRID_POINTS = 60_000
 SECTION_GRID_POINTS = 120_000
 CHAMFER_REACH = 12
-PROBE_POINTS = 64
-FAST_SDF_S = 20e-6
 MAX_STEPS = 96
 BISECTIONS = 4
 MAX_SIDE = 1024
@@ -186,19 +183,13 @@ def _trilinear(volume: np.ndarray, index: np.ndarray) -> np.ndarray:
     return (c00 * (1 - fy) + c10 * fy) * (1 - fz) + (c01 * (1 - fy) + c11 * fy) * fz
 
 
-def _sdf_is_fast(design: Design, lo: np.ndarray, hi: np.ndarray) -> bool:
-    """Whether sampling the design's signed distance costs at most :data:`FAST_SDF_S` per point.
-
-    A design holding meshes (``design.meshes`` non-empty) is slow without asking: a mesh's
-    signed distance needs search structures that take about a second to build. Otherwise
-    timed on a probe of :data:`PROBE_POINTS` points.
-    """
-    if getattr(design, "meshes", None):
-        return False
-    probe = lo + (hi - lo) * np.linspace(0.05, 0.95, PROBE_POINTS)[:, None]
-    started = time.perf_counter()
-    design.sdf(probe[:, 0], probe[:, 1], probe[:, 2])
-    return (time.perf_counter() - started) / PROBE_POINTS <= FAST_SDF_S
+def _sdf_is_fast(design: Design) -> bool:
+    """Whether the design's exact signed distance is cheap enough to sample a grid with:
+    a design holding meshes (``design.meshes`` non-empty) is not (a mesh's signed
+    distance needs search structures that take about a second to build), every other
+    one is. Decided from the design alone, never by timing, so that the thumbnails, and
+    the G-code holding them, are the same on every run and machine."""
+    return not getattr(design, "meshes", None)
 
 
 def _ray_box(origins: np.ndarray, view: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -228,7 +219,7 @@ class _Scene:
     def exact(self) -> bool:
         """Whether hits are refined on the design's exact signed distance."""
         if self._exact is None:
-            self._exact = _sdf_is_fast(self.design, self.lo, self.hi)
+            self._exact = _sdf_is_fast(self.design)
         return self._exact
 
     @property
