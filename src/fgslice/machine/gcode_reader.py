@@ -485,11 +485,6 @@ _ZERO_CHARS, _DIGIT_LIMIT, _POINT_XOR = _bytes(0x30), _bytes(0x76), _bytes(0x1E)
 _ONE, _SEVEN, _EIGHT, _BYTE = np.uint64(1), np.uint64(7), np.uint64(8), np.uint64(0xFF)
 
 
-def _below_lowest(v: np.ndarray) -> np.ndarray:
-    """The bits below the lowest set bit of each uint64 word (all 64 when none is set)."""
-    return (v - _ONE) & ~v
-
-
 def _parse_short(words: np.ndarray, begin: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Numbers of at most 7 characters (all coordinates and extrusions a slicer writes)
     starting at ``begin``, each from the one uint64 word ``words[begin]`` (little endian:
