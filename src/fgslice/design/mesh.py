@@ -48,6 +48,9 @@ from fgslice.errors import MeshError
 
 SUPPORTED_FORMATS = {".stl": "stl", ".3mf": "3mf", ".obj": "obj"}
 
+_EMPTY = shapely.MultiPolygon()
+"""The empty section (geometries are immutable, so one instance serves every plane)."""
+
 _MIN_LOOP_AREA = 1e-10
 """Loops with an absolute area below this (mm^2) are degenerate and dropped."""
 
@@ -292,7 +295,7 @@ class MeshGeometry:
         """Sections (MultiPolygons) at the heights ``zs``."""
         plane, face = self._slabs.crossings(zs)
         if len(face) == 0:
-            return np.array([shapely.MultiPolygon() for _ in zs], dtype=object)
+            return np.full(len(zs), _EMPTY, dtype=object)
         node_ids, points = _plane_segments(self._face_z, self._edge_ends, self._face_edges, face, zs[plane])
         node_ids = node_ids + plane[:, None] * len(self._edges)
         rings, ring_plane, ring_direction = _stitch(node_ids, points, plane, self.gap_tolerance)
@@ -598,9 +601,13 @@ def _assemble(rings, ring_plane: np.ndarray, ring_direction: np.ndarray, n_plane
     and empty. Planes whose rings never touch are filled from the nesting tree of the
     rings; planes with touching or crossing rings (overlapping shells) from the faces of
     their noded rings (:func:`_fill_crossing`).
+
+    A plane whose rings together form a simple line (each ring simple, no two touching)
+    is filled from the nesting tree and is valid by construction; only the other planes
+    are searched for touching pairs and have their result validated.
     """
     ring_index, coords, ring_size = rings
-    out = np.array([shapely.MultiPolygon() for _ in range(n_planes)], dtype=object)
+    out = np.full(n_planes, _EMPTY, dtype=object)
     usable = ring_size >= 3
     if not usable.any():
         return out
@@ -616,8 +623,13 @@ def _assemble(rings, ring_plane: np.ndarray, ring_direction: np.ndarray, n_plane
         return out
     exteriors = shapely.get_exterior_ring(polygons)
     winding = np.where(shapely.is_ccw(exteriors), ring_direction, -ring_direction)
+    planes, local_plane = np.unique(ring_plane, return_inverse=True)
+    suspect = planes[~shapely.is_simple(shapely.multilinestrings(exteriors, indices=local_plane))]
     shifted, offsets = _side_by_side(polygons, ring_plane)
-    crossing = _planes_with_touching_rings(shifted, ring_plane, n_planes)
+    crossing = np.zeros(n_planes, dtype=bool)
+    if len(suspect):
+        ids = np.flatnonzero(np.isin(ring_plane, suspect))
+        crossing = _planes_with_touching_rings(shifted[ids], ring_plane[ids], n_planes)
     nested = ~crossing[ring_plane]
     if nested.any():
         ids = np.flatnonzero(nested)
@@ -625,8 +637,7 @@ def _assemble(rings, ring_plane: np.ndarray, ring_direction: np.ndarray, n_plane
     for plane in np.flatnonzero(crossing):
         ids = np.flatnonzero(ring_plane == plane)
         out[plane] = _fill_crossing(exteriors[ids], polygons[ids], winding[ids])
-    bad = np.flatnonzero(~shapely.is_valid(out))
-    for i in bad:
+    for i in suspect[~shapely.is_valid(out[suspect])]:
         out[i] = _polygonal(shapely.make_valid(out[i], method="structure", keep_collapsed=False))
     return shapely.orient_polygons(out)
 
