@@ -454,59 +454,87 @@ def _stitch(node_ids: np.ndarray, points: np.ndarray, plane: np.ndarray, gap_tol
     ``rings = (ring_index, coords, ring_size)``: the ring of each point (ascending),
     the (P, 2) points in ring order and the number of points of each ring.
 
+    Every loop and open chain is walked twice, once per direction, over disjoint
+    half-ends; the walk whose smallest half-end is even is kept. A loop's points start
+    at its smallest half-end, a chain's at its free end and close with the point where
+    it leaves its last segment. Rings are ordered by smallest half-end.
+
     ``ring_direction`` (one per ring) tells whether a ring's point order follows its
     segments' directions (+1), runs against all of them (-1) or cannot be trusted (0):
     the ring is an open chain closed directly, or it mixes both (non-manifold pairing,
     or open ends joined across a gap with opposite directions).
     """
-    n_half = node_ids.size
-    nodes = node_ids.ravel()
     xy = points.reshape(-1, 2)
     half_plane = np.repeat(plane, 2)
-    mate = _pair_equal(nodes)
+    mate = _pair_equal(node_ids.ravel())
     _pair_open_ends(mate, xy, half_plane, gap_tolerance)
-
-    half = np.arange(n_half)
-    succ = mate[half ^ 1]
-    linked = succ >= 0
-    pred = np.full(n_half, -1)
-    pred[succ[linked]] = half[linked]
-    # every half-end has at most one successor and one predecessor: the walks are
-    # disjoint chains and loops, each labelled by its smallest half-end (a loop's is
-    # reached going forwards, a chain's needs both ways)
-    label = _reach_min(succ)
-    if not linked.all():
-        label = np.minimum(label, _reach_min(pred))
-    # each loop or chain is found twice, once per direction; keep the one holding an
-    # even half-end as its smallest
-    keep = label % 2 == 0
-    is_open = np.zeros(n_half, dtype=bool)
-    is_open[label[~linked]] = True
-
-    # break every closed loop before its smallest half-end, then rank by pointer jumping
-    chain_succ = succ.copy()
-    closed_heads = half[(label == half) & ~is_open]
-    chain_succ[pred[closed_heads]] = -1
-    dist = _distance_to_tail(chain_succ)
-
-    kept = half[keep]
-    ring_label = label[kept]
-    order_key = -dist[kept]
-    coords = xy[kept]
-    tails = kept[(succ[kept] < 0)]
-    ring_label = np.concatenate([ring_label, label[tails]])
-    order_key = np.concatenate([order_key, np.ones(len(tails), dtype=order_key.dtype)])
-    coords = np.concatenate([coords, xy[tails ^ 1]])
-    order = np.lexsort((order_key, ring_label))
-    ring_label = ring_label[order]
-    coords = coords[order]
-    uniq, ring_index, ring_size = np.unique(ring_label, return_inverse=True, return_counts=True)
-    ring_plane = half_plane[uniq]
-    entered = np.bincount(label[kept], minlength=n_half)[uniq]
-    backward = np.bincount(label[kept], weights=kept % 2, minlength=n_half)[uniq]
+    half = np.arange(node_ids.size)
+    if ((mate ^ half)[mate >= 0] & 1).all():
+        # every mate joins a segment's end to a start: the walks along the segments'
+        # directions use only the starts (even half-ends), the reversed ones only the ends
+        succ = mate[1::2] // 2  # the segment whose start is this segment's end's mate (-1 stays -1)
+        walk, first = _walks(succ)
+        walk = walk * 2
+        succ = mate[half ^ 1]
+    else:
+        succ = mate[half ^ 1]
+        walk, first = _walks(succ)
+    label = np.minimum.reduceat(walk, first)
+    last = np.r_[first[1:], len(walk)] - 1
+    is_open = succ[walk[last]] < 0
+    keep = np.flatnonzero(label % 2 == 0)
+    keep = keep[np.argsort(label[keep], kind="stable")]
+    label, is_open = label[keep], is_open[keep]
+    entered = (last - first + 1)[keep]
+    backward = np.add.reduceat(walk % 2, first)[keep]
+    starts = np.repeat(first[keep], entered) + _ranks_within_runs(entered)
+    halves = walk[starts]
+    extra = np.zeros(len(halves), dtype=np.int64)
+    extra[np.cumsum(entered)[is_open] - 1] = 1
+    ring_size = entered + is_open
+    repeated = np.repeat(halves, extra + 1)
+    leaving = np.zeros(len(repeated), dtype=np.int64)
+    leaving[np.cumsum(ring_size)[is_open] - 1] = 1
+    coords = xy[repeated ^ leaving]
+    ring_index = np.repeat(np.arange(len(keep)), ring_size)
     ring_direction = np.where(backward == 0, 1, np.where(backward == entered, -1, 0)).astype(np.int8)
-    ring_direction[is_open[uniq]] = 0
-    return (ring_index, coords, ring_size), ring_plane, ring_direction
+    ring_direction[is_open] = 0
+    return (ring_index, coords, ring_size), half_plane[label], ring_direction
+
+
+def _walks(succ: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every element once, in walks along ``succ`` (-1 = stop; at most one predecessor each).
+
+    Returns the elements in walk order and the position where each walk starts. Chains
+    are walked from their first element (the one without predecessor), in order of it;
+    then loops from their smallest element, in order of it.
+
+    Pointer doubling backwards: each element keeps the smallest key among the ``2^k``
+    elements before it (a chain's first element, keyed below every index, stops the
+    walk) and how many steps back it lies. Once a round lowers no key, every element
+    holds its walk's start and its rank in the walk.
+    """
+    n = len(succ)
+    linked = np.flatnonzero(succ >= 0)
+    has_pred = np.zeros(n, dtype=bool)
+    has_pred[succ[linked]] = True
+    back = np.arange(n)
+    back[succ[linked]] = linked
+    low = np.arange(n) - np.where(has_pred, 0, n)
+    steps = np.zeros(n, dtype=np.int64)
+    span = 1
+    while True:
+        earlier = low[back]
+        lower = earlier < low
+        if not lower.any():
+            break
+        steps = np.where(lower, steps[back] + span, steps)
+        low = np.minimum(low, earlier)
+        back = back[back]
+        span *= 2
+    order = np.argsort((low + n) * n + steps)
+    low = low[order]
+    return order, np.flatnonzero(np.r_[True, low[1:] != low[:-1]])
 
 
 def _pair_equal(nodes: np.ndarray) -> np.ndarray:
@@ -561,35 +589,6 @@ def _pair_open_ends(mate: np.ndarray, xy: np.ndarray, plane: np.ndarray, toleran
     mutual = np.zeros(len(open_ends), dtype=bool)
     mutual[found] = nearest[nearest[found]] == own[found, 0]
     mate[open_ends[mutual]] = open_ends[nearest[mutual]]
-
-
-def _reach_min(step: np.ndarray) -> np.ndarray:
-    """Smallest index reachable from each element by following ``step`` (-1 = stop), itself included.
-
-    Pointer doubling: after round ``k`` each minimum covers the next ``2^k`` elements;
-    once a round changes none of them, longer windows cannot either.
-    """
-    low = np.arange(len(step))
-    nxt = np.where(step >= 0, step, low)
-    while True:
-        lower = np.minimum(low, low[nxt])
-        if np.array_equal(lower, low):
-            return low
-        low = lower
-        nxt = nxt[nxt]
-
-
-def _distance_to_tail(succ: np.ndarray) -> np.ndarray:
-    """Number of steps from each element to the end of its chain (pointer jumping)."""
-    nxt = succ.copy()
-    dist = (nxt >= 0).astype(np.int64)
-    active = np.flatnonzero(nxt >= 0)
-    while len(active):
-        step = nxt[active]
-        dist[active] += dist[step]
-        nxt[active] = nxt[step]
-        active = active[nxt[active] >= 0]
-    return dist
 
 
 def _assemble(rings, ring_plane: np.ndarray, ring_direction: np.ndarray, n_planes: int) -> np.ndarray:
