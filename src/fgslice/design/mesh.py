@@ -249,7 +249,7 @@ class MeshGeometry:
         self.path = Path(path) if path is not None else None
         self.gap_tolerance = float(gap_tolerance)
         self._vertices, self._faces = _sorted_by_height(np.asarray(vertices, dtype=float), np.asarray(faces, dtype=np.int64))
-        self._edges, self._face_edges = _unique_edges(self._faces, len(self._vertices))
+        self._edges, self._face_edges, self._across = _edge_tables(self._faces, len(self._vertices))
         self._face_z = np.ascontiguousarray(self._vertices[:, 2])[self._faces]
         self._edge_ends = np.take(self._vertices, self._edges, axis=0)
         z0, z1, z2 = self._face_z.T
@@ -296,9 +296,11 @@ class MeshGeometry:
         plane, face = self._slabs.crossings(zs)
         if len(face) == 0:
             return np.full(len(zs), _EMPTY, dtype=object)
-        node_ids, points = _plane_segments(self._face_z, self._edge_ends, self._face_edges, face, zs[plane])
+        node_ids, points, next_face = _plane_segments(self._face_z, self._edge_ends, self._face_edges, self._across, face, zs[plane])
         node_ids = node_ids + plane[:, None] * len(self._edges)
-        rings, ring_plane, ring_direction = _stitch(node_ids, points, plane, self.gap_tolerance)
+        key = plane * len(self._faces) + face  # ascending: crossings() lists planes, then faces, in order
+        successor = np.where(next_face >= 0, np.searchsorted(key, plane * len(self._faces) + next_face), -1)
+        rings, ring_plane, ring_direction = _stitch(node_ids, points, plane, successor, self.gap_tolerance)
         return _assemble(rings, ring_plane, ring_direction, len(zs))
 
     def sdf(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
@@ -334,16 +336,28 @@ def _sorted_by_height(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarr
     return np.take(vertices, order, axis=0), np.take(faces, np.argsort(lowest, kind="stable"), axis=0)
 
 
-def _unique_edges(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
-    """The unique edges ``(E, 2)`` (lower vertex index first, sorted) and each face's edges ``(F, 3)``.
+def _edge_tables(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The unique edges ``(E, 2)`` (lower vertex index first, sorted), each face's edges
+    ``(F, 3)`` and the face across each of them ``(F, 3)``, or -1.
 
-    A face's edges are (v0, v1), (v1, v2), (v2, v0), in that order.
+    A face's edges are (v0, v1), (v1, v2), (v2, v0), in that order. Only edges of
+    exactly two faces wound consistently (one runs the edge upwards in vertex index,
+    the other downwards) have a face across; at the others (boundary, non-manifold or
+    flipped) sections pair segment ends by edge id.
     """
     following = np.roll(faces, -1, axis=1)
+    upwards = (faces < following).ravel()
     keys = (np.minimum(faces, following) * np.int64(n_vertices) + np.maximum(faces, following)).ravel()
     order, new, inverse = _sorted_groups(keys)
     unique = keys[order[new]]
-    return np.column_stack([unique // n_vertices, unique % n_vertices]), inverse.reshape(-1, 3)
+    two_faces = np.flatnonzero(~new[1:] & np.r_[new[2:], True] & new[:-1])
+    a, b = order[two_faces], order[two_faces + 1]
+    consistent = upwards[a] != upwards[b]
+    a, b = a[consistent], b[consistent]
+    across = np.full(keys.size, -1, dtype=np.int64)
+    across[a] = b // 3
+    across[b] = a // 3
+    return np.column_stack([unique // n_vertices, unique % n_vertices]), inverse.reshape(-1, 3), across.reshape(-1, 3)
 
 
 class _SlabIndex:
@@ -419,15 +433,18 @@ _CROSSED_EDGES = _crossed_edges()
 _VERTEX_BITS = np.array([1, 2, 4])
 
 
-def _plane_segments(face_z, edge_ends, face_edges, face, z):
+def _plane_segments(face_z, edge_ends, face_edges, across, face, z):
     """Segments cut by planes at heights ``z`` from triangles ``face`` (one plane each).
 
     ``face_z`` (F, 3) are the triangles' vertex heights, ``edge_ends`` (E, 2, 3) the
-    end points of each unique edge, ``face_edges`` (F, 3) each triangle's edges.
+    end points of each unique edge, ``face_edges`` (F, 3) each triangle's edges,
+    ``across`` (F, 3) the face across each of them (:func:`_edge_tables`).
 
-    Returns ``(edge_ids, points)``: shapes (M, 2) and (M, 2, 2) — for both ends of each
-    segment, the unique edge it lies on and its XY position. The position is computed
-    from the edge's canonical vertex order, so both faces of an edge agree bit for bit.
+    Returns ``(edge_ids, points, next_face)``: shapes (M, 2), (M, 2, 2) and (M,) — for
+    both ends of each segment, the unique edge it lies on and its XY position; and the
+    face whose segment starts where this one ends, when the edge has a face across
+    (else -1). The position is computed from the edge's canonical vertex order, so
+    both faces of an edge agree bit for bit.
 
     Segments are directed by the triangle's winding: they start on the edge the winding
     crosses downwards (v_j above, v_j+1 below) and end on the one it crosses upwards.
@@ -436,19 +453,22 @@ def _plane_segments(face_z, edge_ends, face_edges, face, z):
     around holes.
     """
     pattern = (face_z[face] >= z[:, None]) @ _VERTEX_BITS
-    edge_ids = face_edges[face[:, None], _CROSSED_EDGES[pattern]]
+    slots = _CROSSED_EDGES[pattern]
+    edge_ids = face_edges[face[:, None], slots]
     ends = edge_ends[edge_ids]
     a, b = ends[:, :, 0], ends[:, :, 1]
     t = (z[:, None] - a[..., 2]) / (b[..., 2] - a[..., 2])
     points = a[..., :2] + t[..., None] * (b[..., :2] - a[..., :2])
-    return edge_ids, points
+    return edge_ids, points, across[face, slots[:, 1]]
 
 
-def _stitch(node_ids: np.ndarray, points: np.ndarray, plane: np.ndarray, gap_tolerance: float):
+def _stitch(node_ids: np.ndarray, points: np.ndarray, plane: np.ndarray, successor: np.ndarray, gap_tolerance: float):
     """Order segments into rings.
 
     ``node_ids`` (M, 2) identify each segment end (equal ids = same point), ``points``
-    (M, 2, 2) are their positions, ``plane`` (M,) their plane. Ends are handled as
+    (M, 2, 2) are their positions, ``plane`` (M,) their plane; ``successor`` (M,) is
+    the segment starting where each one ends when that is known from the mesh's
+    adjacency (else -1: the ends are paired by node id). Ends are handled as
     half-ends ``h = 2 * segment + end``; a walk enters a segment at ``h``, leaves at
     ``h ^ 1`` and continues at that end's mate. Returns ``(rings, ring_plane, ring_direction)`` where
     ``rings = (ring_index, coords, ring_size)``: the ring of each point (ascending),
@@ -466,7 +486,7 @@ def _stitch(node_ids: np.ndarray, points: np.ndarray, plane: np.ndarray, gap_tol
     """
     xy = points.reshape(-1, 2)
     half_plane = np.repeat(plane, 2)
-    mate = _pair_equal(node_ids.ravel())
+    mate = _mates(node_ids.ravel(), successor)
     _pair_open_ends(mate, xy, half_plane, gap_tolerance)
     half = np.arange(node_ids.size)
     if ((mate ^ half)[mate >= 0] & 1).all():
@@ -537,10 +557,25 @@ def _walks(succ: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return order, np.flatnonzero(np.r_[True, low[1:] != low[:-1]])
 
 
-def _pair_equal(nodes: np.ndarray) -> np.ndarray:
-    """Mate of each half-end: another one with the same node id, or -1.
+def _mates(nodes: np.ndarray, successor: np.ndarray) -> np.ndarray:
+    """Mate of each half-end: a segment's end and the start of its known ``successor``,
+    the other half-ends by :func:`_pair_equal` (none of them shares a node with those)."""
+    mate = np.full(len(nodes), -1)
+    known = np.flatnonzero(successor >= 0)
+    mate[2 * known + 1] = 2 * successor[known]
+    mate[2 * successor[known]] = 2 * known + 1
+    rest = np.flatnonzero(mate < 0)
+    if len(rest):
+        partner = _pair_equal(nodes[rest], rest % 2)
+        paired = partner >= 0
+        mate[rest[paired]] = rest[partner[paired]]
+    return mate
 
-    Half-ends ``2s`` are segment starts, ``2s + 1`` segment ends. At each node the
+
+def _pair_equal(nodes: np.ndarray, is_end: np.ndarray) -> np.ndarray:
+    """Mate of each half-end (by position in ``nodes``): another one with the same node id, or -1.
+
+    ``is_end`` (0 or 1 each) tells segment ends from starts. At each node the
     starts are paired with the ends first (both in order of index), so that a walk
     keeps following the segments' directions at non-manifold edges; starts or ends
     left over are paired among themselves in order of index, an odd one out stays
@@ -548,7 +583,6 @@ def _pair_equal(nodes: np.ndarray) -> np.ndarray:
     """
     n = len(nodes)
     position = np.arange(n)
-    is_end = position % 2
     order = np.argsort(nodes * 2 + is_end, kind="stable")
     sorted_nodes = nodes[order]
     run_start = np.r_[True, sorted_nodes[1:] != sorted_nodes[:-1]]
