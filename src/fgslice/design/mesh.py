@@ -10,7 +10,9 @@ the two points where the plane cuts its edges. Conventions and robustness rules:
   perturbation (the plane moved down by an infinitesimal), applied identically to every
   triangle sharing the vertex, so no segment is lost or doubled.
 * Segment ends are identified by the unique mesh edge they lie on; segments are stitched
-  into loops through those ids (two segments per edge on a manifold mesh). At a
+  into loops through those ids (two segments per edge on a manifold mesh; at an edge
+  of two consistently wound faces the next segment is found directly from the face
+  across, a table built once per mesh). At a
   non-manifold edge (more than two faces) a segment's end is paired with another
   segment's start (in order of index), so loops keep the triangles' winding. Ends left
   open (holes in a non-watertight mesh) are joined to the nearest other open end of
