@@ -236,3 +236,33 @@ def test_grid_tour_is_the_exact_nearest_entry_tour(layout, monkeypatch):
     assert len(grid) == len(scan) == len(paths)
     assert all(np.array_equal(g.points, s.points) for g, s in zip(grid, scan))
     assert np.isclose(travel_distance(grid, np.zeros(2)), travel_distance(scan, np.zeros(2)))
+
+
+def test_packed_plan_holds_each_input_path_turned_and_its_attributes():
+    """The plan is packed straight from the tour's records: every step's points are an
+    input path's points as they are, reversed (open) or rotated (closed), with that
+    path's attributes, and the columns equal those of packing the built steps."""
+    from fgslice.planning.plan import pack_steps
+
+    rng = np.random.default_rng(7)
+    paths = shuffled_grid(300, rng, colors=3) + [loop(20, 20, 5, color=c, n=9) for c in range(3)]
+    paths += [Path(np.array([[0.0, 40], [5, 41], [9, 40]]), Role.EXTERNAL_PERIMETER, 1, 0.45, 0.2, group=4)]
+    plan = order_layer(LayerPaths(0, 0.2, 0.2, paths), np.array([2, 0, 1]), np.array([30.0, -5.0]), "walls_first")
+    packed = plan.packed
+    assert packed is not None
+    again = pack_steps(plan.steps, None)
+    for name in ("kind", "ref", "points", "offsets", "roles", "colors", "widths", "heights", "closed", "groups",
+                 "lengths", "rows"):
+        assert np.array_equal(getattr(packed, name), getattr(again, name)), name
+    printed = [s for s in plan.steps if isinstance(s, Path)]
+    assert len(printed) == len(paths)
+    for step in printed:
+        source = [p for p in paths if p.color == step.color and same_geometry(p, step)
+                  and (p.role, p.width, p.group, p.closed) == (step.role, step.width, step.group, step.closed)]
+        assert source, "every printed path is an input path"
+        p = source[0]
+        if p.closed:
+            k = int(np.flatnonzero((p.points == step.points[0]).all(axis=1))[0])
+            assert np.array_equal(step.points, np.roll(p.points, -k, axis=0))
+        else:
+            assert np.array_equal(step.points, p.points) or np.array_equal(step.points, p.points[::-1])

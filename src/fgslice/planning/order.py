@@ -23,8 +23,11 @@ contiguous run; their points, ends and entries are gathered into layer-wide arra
 (points as complex numbers ``x + iy``, so a distance is one ``abs``). A group with few
 loose paths finds each nearest entry with one numpy pass over the group's entries
 (printed ones set to infinity); a large group buckets its entries in a uniform grid
-(:class:`_EntryGrid`) with each entry's nearest neighbours precomputed from it. Only paths
-that change get a new :class:`Path`. Coordinates are bed-frame mm.
+(:class:`_EntryGrid`) with each entry's nearest neighbours precomputed from it. The tours
+record each step as a path index and a turn (as it is, reversed, or rotated to a vertex)
+and the plan is packed from those records in numpy (:class:`PackedSteps` columns, no
+:class:`Path` per step; they are built only if someone asks for ``plan.steps``).
+Coordinates are bed-frame mm.
 """
 
 from __future__ import annotations
@@ -36,12 +39,11 @@ from operator import attrgetter
 import numpy as np
 
 from fgslice.errors import SettingsError
-from fgslice.planning.plan import LayerPlan, SetState, Step
+from fgslice.planning.plan import PACKED, STATE, LayerPlan, PackedSteps, pack_arrays, role_codes
 from fgslice.toolpaths.paths import LayerPaths, Path, Role
 
 WALL_ROLES = frozenset({Role.EXTERNAL_PERIMETER, Role.PERIMETER})
-#: Roles are enum singletons: membership by identity avoids the enum's Python ``__hash__``.
-_WALL_ROLE_IDS = frozenset(map(id, WALL_ROLES))
+_WALL_ROLE_CODES = role_codes(WALL_ROLES)
 FEATURE_ORDERS = ("walls_first", "infill_first")
 SKIRT_COLOR = -1
 
@@ -83,7 +85,8 @@ def order_layer(
 
     Returns:
         A :class:`LayerPlan`: color ``-1`` paths first (no state set), then for each color
-        ``SetState(c)`` followed by its paths, each group toured nearest-neighbour.
+        ``SetState(c)`` followed by its paths, each group toured nearest-neighbour; held as
+        :class:`PackedSteps` columns (:meth:`LayerPlan.from_packed`).
 
     Raises:
         SettingsError: unknown ``feature_order``.
@@ -101,8 +104,8 @@ def order_layer(
     n = len(items)
     sequence = np.asarray(color_sequence, dtype=np.int64).reshape(-1)
     colors = np.fromiter(map(attrgetter("color"), items), dtype=np.int64, count=n)
-    role_ids = map(id, map(attrgetter("role"), items))
-    walls = np.fromiter(map(_WALL_ROLE_IDS.__contains__, role_ids), dtype=bool, count=n)
+    roles = role_codes(map(attrgetter("role"), items))
+    walls = np.isin(roles, _WALL_ROLE_CODES)
     rank = np.full(max(int(colors.max()), int(sequence.max(initial=0))) + 2, -1, dtype=np.int64)
     rank[sequence[::-1]] = np.arange(sequence.size)[::-1]  # first occurrence wins
     stray = (colors != SKIRT_COLOR) & ((colors < 0) | (rank[np.maximum(colors, 0)] < 0))
@@ -127,26 +130,47 @@ def order_layer(
     new_unit = new_group.copy()
     new_unit[1:] |= unit_rank[1:] != unit_rank[:-1]
     layer = _Layer([items[i] for i in order.tolist()], loose)
+    widths = np.fromiter(map(attrgetter("width"), items), dtype=np.float64, count=n)
+    heights = np.fromiter(map(attrgetter("height"), items), dtype=np.float64, count=n)
     chains = _Chains(layer, new_unit) if not loose.all() else None
     all_unit_starts = np.flatnonzero(new_unit & ~loose).tolist()
 
     x, y = (float(v) for v in np.asarray(start_xy, dtype=np.float64).reshape(2))
-    steps: list[Step] = []
+    steps = _Steps()
     current = None
     group_colors = colors[order[group_start]].tolist()
     group_stop = group_start.tolist()[1:] + [n]
     bounds = zip(group_start.tolist(), group_stop, unit_paths.tolist())
     for color, (a, c, units) in zip(group_colors, bounds):
         if color != SKIRT_COLOR and color != current:
-            steps.append(SetState(color))
+            steps.state(color)
             current = color
         if units:
             unit_starts = all_unit_starts[bisect_left(all_unit_starts, a) : bisect_left(all_unit_starts, a + units)]
             x, y = _walk_units(layer, chains, unit_starts, a + units, x, y, steps)
         if a + units < c:
             x, y = _tour(layer, a + units, c, x, y, steps)
-    plan.steps = steps
-    return plan
+    columns = (roles[order], colors[order], widths[order], heights[order], layer.closed_mask, unit[order])
+    return LayerPlan.from_packed(paths.index, paths.z, paths.height, layer.pack(steps, *columns))
+
+
+class _Steps:
+    """A plan as it is built: per step, ``path`` is a layer path index (-1 for a
+    :class:`SetState`) and ``value`` how the path is turned (:data:`AS_IS`,
+    :data:`REVERSED`, or ``k > 0``: closed, rotated to start at its vertex ``k``) or the
+    SetState's color."""
+
+    def __init__(self) -> None:
+        self.path: list[int] = []
+        self.value: list[int] = []
+
+    def state(self, color: int) -> None:
+        self.path.append(-1)
+        self.value.append(color)
+
+
+#: :class:`_Steps` turns of a path: printed as it is, or reversed (open paths).
+AS_IS, REVERSED = 0, -1
 
 
 class _Layer:
@@ -154,7 +178,8 @@ class _Layer:
 
     Attributes:
         paths: the paths.
-        xy: every path's points, concatenated, as complex ``x + iy`` (mm).
+        points: every path's points, concatenated, ``(P, 2)`` float (mm).
+        xy: the same points as complex ``x + iy`` (mm).
         offsets: ``(n + 1,)`` path ``i`` owns ``xy[offsets[i]:offsets[i + 1]]`` (Python list).
         closed, closed_mask: each path's ``closed`` (Python list, numpy array).
         start, end: first and last point of each path (Python lists of complex, mm);
@@ -173,7 +198,8 @@ class _Layer:
         sizes = np.fromiter(map(len, arrays), dtype=np.int64, count=n)
         offsets = np.zeros(n + 1, dtype=np.int64)
         np.cumsum(sizes, out=offsets[1:])
-        xy = np.ascontiguousarray(np.concatenate(arrays), dtype=np.float64).view(np.complex128).ravel()
+        self.points = np.ascontiguousarray(np.concatenate(arrays), dtype=np.float64)
+        xy = self.points.view(np.complex128).ravel()
         closed = np.fromiter(map(attrgetter("closed"), paths), dtype=bool, count=n)
         first, last = offsets[:-1], offsets[1:] - 1
         self.xy = xy
@@ -216,15 +242,31 @@ class _Layer:
         )
         self.entry_offsets = np.searchsorted(entry_path, np.arange(n + 1)).tolist()
 
-    def enter_closed(self, i: int, at: complex) -> tuple[Path, complex]:
-        """Closed path ``i`` rotated to start at its vertex nearest ``at``, and that vertex."""
+    def enter_closed(self, i: int, at: complex) -> tuple[int, complex]:
+        """The vertex of closed path ``i`` nearest ``at`` (its index on the path, the
+        path's turn in :class:`_Steps`), and that vertex's position."""
         ring = self.xy[self.offsets[i] : self.offsets[i + 1]]
         vertex = int(np.abs(ring - at).argmin())
-        path = self.paths[i]
-        if vertex:
-            points = path.points
-            path = _moved(path, np.concatenate((points[vertex:], points[:vertex])))
-        return path, complex(ring[vertex])
+        return vertex, complex(ring[vertex])
+
+    def pack(self, steps: _Steps, roles, colors, widths, heights, closed, groups) -> PackedSteps:
+        """The recorded ``steps`` as columns: each path's points taken from
+        :attr:`points` as it is, reversed or rotated, with its attributes (per layer path,
+        in layer order) gathered."""
+        index = np.asarray(steps.path, dtype=np.int64)
+        value = np.asarray(steps.value, dtype=np.int64)
+        is_path = index >= 0
+        kind = np.where(is_path, PACKED, STATE)
+        ref = np.where(is_path, np.cumsum(is_path) - 1, value)
+        path, turn = index[is_path], value[is_path]
+        offsets = np.asarray(self.offsets, dtype=np.int64)
+        first, sizes = offsets[path], offsets[path + 1] - offsets[path]
+        owner = np.repeat(np.arange(path.size), sizes)
+        t = np.arange(int(sizes.sum())) - np.repeat(np.cumsum(sizes) - sizes, sizes)
+        size, shift = sizes[owner], turn[owner]
+        t = np.where(shift == REVERSED, size - 1 - t, np.where(shift > 0, (t + shift) % size, t))
+        return pack_arrays(kind, ref, self.points[first[owner] + t], sizes, roles[path], colors[path], widths[path],
+                           heights[path], closed[path], groups[path])
 
     def entry_distances(self, indices: np.ndarray, at: complex) -> np.ndarray:
         """Distance (mm) from ``at`` to the nearest entry of each path in ``indices`` (any
@@ -245,7 +287,7 @@ class _Layer:
 
 
 def _walk_units(
-    layer: _Layer, chains: _Chains, unit_starts: list[int], stop: int, x: float, y: float, out: list[Step]
+    layer: _Layer, chains: _Chains, unit_starts: list[int], stop: int, x: float, y: float, out: _Steps
 ) -> tuple[float, float]:
     """Print the units starting at ``unit_starts`` (the last ends at ``stop``), nearest
     first unit first, each in its list order, every path rotated (closed) or reversed
@@ -296,26 +338,26 @@ class _Chains:
         self.flips = (flip.tolist(), (flip ^ ~fixed).tolist())
         self.heads = np.flatnonzero(head).tolist()
 
-    def walk(self, a: int, b: int, at: complex, out: list[Step]) -> complex:
+    def walk(self, a: int, b: int, at: complex, out: _Steps) -> complex:
         """Append paths ``a..b-1`` (one unit) in order, oriented from the nozzle position
         ``at``; returns the final nozzle position."""
         layer = self.layer
-        paths, closed, start, end = layer.paths, layer.closed, layer.start, layer.end
+        closed, start, end = layer.closed, layer.start, layer.end
         heads = self.heads[bisect_left(self.heads, a) : bisect_left(self.heads, b)]
         for c0, c1 in zip(heads, heads[1:] + [b]):
             if closed[c0]:
-                path, at = layer.enter_closed(c0, at)
-                out.append(path)
+                vertex, at = layer.enter_closed(c0, at)
+                out.path.append(c0)
+                out.value.append(vertex)
                 continue
             flips = self.flips[abs(end[c0] - at) < abs(start[c0] - at)][c0:c1]
-            out.extend(
-                [_moved(paths[i], paths[i].points[::-1]) if f else paths[i] for i, f in zip(range(c0, c1), flips)]
-            )
+            out.path.extend(range(c0, c1))
+            out.value.extend([REVERSED if f else AS_IS for f in flips])
             at = start[c1 - 1] if flips[-1] else end[c1 - 1]
         return at
 
 
-def _tour(layer: _Layer, a: int, b: int, x: float, y: float, out: list[Step]) -> tuple[float, float]:
+def _tour(layer: _Layer, a: int, b: int, x: float, y: float, out: _Steps) -> tuple[float, float]:
     """Greedy nearest-entry tour of the loose paths ``a..b-1``; appends the oriented paths
     to ``out`` and returns the final XY (mm).
 
@@ -331,7 +373,7 @@ def _tour(layer: _Layer, a: int, b: int, x: float, y: float, out: list[Step]) ->
     entry_offsets = layer.entry_offsets
     neighbours, neighbour_offsets = search.neighbours, search.neighbour_offsets
     printed = search.printed
-    rotated: list[tuple[int, Path]] = []
+    rotated: list[tuple[int, int]] = []
     chosen_entries: list[int] = []
     at = complex(x, y)
     at_entry = -1
@@ -357,17 +399,14 @@ def _tour(layer: _Layer, a: int, b: int, x: float, y: float, out: list[Step]) ->
             lo, hi = entry_offsets[i] - e0, entry_offsets[i + 1] - e0
             printed[lo:hi] = b"\x01" * (hi - lo)
             left -= hi - lo
-            path, at = layer.enter_closed(i, at)
-            rotated.append((step, path))
+            vertex, at = layer.enter_closed(i, at)
+            rotated.append((step, vertex))
     chosen = np.array(chosen_entries, dtype=np.int64)
-    paths = layer.paths
-    steps = [paths[i] for i in entry_path[chosen].tolist()]
-    for k in np.flatnonzero(layer.entry_reverses[e0:e1][chosen]).tolist():
-        path = steps[k]
-        steps[k] = _moved(path, path.points[::-1])
-    for k, path in rotated:
-        steps[k] = path
-    out.extend(steps)
+    turns = np.where(layer.entry_reverses[e0:e1][chosen], REVERSED, AS_IS)
+    for k, vertex in rotated:
+        turns[k] = vertex
+    out.path.extend(entry_path[chosen].tolist())
+    out.value.extend(turns.tolist())
     if at_entry >= 0:
         at = complex(layer.entry_xy[e0 + at_entry])
     return at.real, at.imag
@@ -554,12 +593,6 @@ def _cell_size(x: np.ndarray, y: np.ndarray) -> float:
     return cell
 
 
-def _moved(path: Path, points: np.ndarray) -> Path:
-    """``path`` with its points replaced (rotated or reversed); the constructor directly,
-    as ``dataclasses.replace`` costs several times more per path."""
-    return Path(points, path.role, path.color, path.width, path.height, path.closed, path.group)
-
-
 def travel_distance(paths: Sequence[Path], start_xy: np.ndarray) -> float:
     """Total travel (mm) to print ``paths`` in order from ``start_xy``: start to the first
     path's start, then each path's end to the next path's start."""
@@ -579,7 +612,13 @@ def travel_tour(paths: Sequence[Path], start_xy: np.ndarray) -> tuple[list[Path]
     position = np.asarray(start_xy, dtype=np.float64).reshape(2)
     if not paths:
         return [], position
-    out: list[Step] = []
-    layer = _Layer(list(paths), np.ones(len(paths), dtype=bool))
-    x, y = _tour(layer, 0, len(paths), float(position[0]), float(position[1]), out)
-    return out, np.array([x, y])
+    items = list(paths)
+    out = _Steps()
+    layer = _Layer(items, np.ones(len(items), dtype=bool))
+    x, y = _tour(layer, 0, len(items), float(position[0]), float(position[1]), out)
+    attributes = (attrgetter(a) for a in ("role", "color", "width", "height", "group"))
+    roles, colors, widths, heights, groups = (list(map(get, items)) for get in attributes)
+    columns = (role_codes(roles), np.array(colors), np.array(widths), np.array(heights), layer.closed_mask,
+               np.array(groups))
+    steps, _ = layer.pack(out, *columns).build()
+    return steps, np.array([x, y])

@@ -204,12 +204,41 @@ class LayerPlan:
         return (_unpack, (self.index, self.z, self.height, pack_steps(steps, self.prepared)))
 
 
+def role_codes(roles) -> np.ndarray:
+    """``(n,)`` int8 :attr:`PackedSteps.roles` codes of an iterable of :class:`Role` members."""
+    roles = list(roles)
+    return np.fromiter(map(_ROLE_CODE_BY_ID.__getitem__, map(id, roles)), dtype=np.int8, count=len(roles))
+
+
+def pack_arrays(kind: np.ndarray, ref: np.ndarray, points: np.ndarray, sizes: np.ndarray, roles: np.ndarray,
+                colors, widths, heights, closed, groups) -> PackedSteps:
+    """:class:`PackedSteps` (no prepared data) from per-step ``kind``/``ref`` and per-path
+    columns: ``points`` ``(P, 2)`` mm, one path after another, ``sizes`` points per path,
+    ``roles`` codes (:func:`role_codes`); each path's length is computed here."""
+    n = len(sizes)
+    closed = np.asarray(closed, dtype=bool)
+    return PackedSteps(
+        np.asarray(kind, dtype=np.int8),
+        np.asarray(ref, dtype=np.int32),
+        points,
+        np.concatenate([[0], np.cumsum(sizes)]).astype(np.int32),
+        np.asarray(roles, dtype=np.int8),
+        np.asarray(colors, dtype=np.int32),
+        np.asarray(widths, dtype=np.float64),
+        np.asarray(heights, dtype=np.float64),
+        closed,
+        np.asarray(groups, dtype=np.int32),
+        _packed_lengths(points, sizes, closed) if n else np.zeros(0),
+        np.full(n, -1, dtype=np.int32),
+    )
+
+
 def pack_steps(steps: list[Step], prepared: Prepared | None) -> PackedSteps:
     """The columns of ``steps`` (SetState and Path only), path lengths computed here."""
     is_path = np.fromiter((s.__class__ is Path for s in steps), dtype=bool, count=len(steps))
     paths = [s for s in steps if s.__class__ is Path]
     n = len(paths)
-    kind = np.where(is_path, PACKED, STATE).astype(np.int8)
+    kind = np.where(is_path, PACKED, STATE)
     ref = np.zeros(len(steps), dtype=np.int32)
     ref[is_path] = np.arange(n)
     ref[~is_path] = [s.color for s in steps if s.__class__ is SetState]
@@ -218,29 +247,16 @@ def pack_steps(steps: list[Step], prepared: Prepared | None) -> PackedSteps:
             *map(attrgetter("points", "role", "color", "width", "height", "closed", "group"), paths)
         )
         sizes = np.fromiter(map(len, points), dtype=np.int64, count=n)
-        points = np.concatenate(points).astype(np.float64, copy=False)
-        closed = np.array(closed, dtype=bool)
-        columns = (
-            points,
-            np.concatenate([[0], np.cumsum(sizes)]).astype(np.int32),
-            np.fromiter(map(_ROLE_CODE_BY_ID.__getitem__, map(id, roles)), dtype=np.int8, count=n),
-            np.array(colors, dtype=np.int32),
-            np.array(widths, dtype=np.float64),
-            np.array(heights, dtype=np.float64),
-            closed,
-            np.array(groups, dtype=np.int32),
-            _packed_lengths(points, sizes, closed),
-        )
+        packed = pack_arrays(kind, ref, np.concatenate(points).astype(np.float64, copy=False), sizes,
+                             role_codes(roles), colors, widths, heights, closed, groups)
     else:
-        columns = (np.zeros((0, 2)), np.zeros(1, dtype=np.int32), np.zeros(0, dtype=np.int8),
-                   np.zeros(0, dtype=np.int32), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool),
-                   np.zeros(0, dtype=np.int32), np.zeros(0))
-    rows, data = np.full(n, -1, dtype=np.int32), None
+        packed = pack_arrays(kind, ref, np.zeros((0, 2)), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int8),
+                             (), (), (), (), ())
     if prepared is not None:
         get = prepared.rows.get
-        rows = np.array([get(p, -1) for p in paths], dtype=np.int32)
-        data = prepared.data
-    return PackedSteps(kind, ref, *columns, rows, data)
+        packed.rows = np.array([get(p, -1) for p in paths], dtype=np.int32)
+        packed.data = prepared.data
+    return packed
 
 
 def _unpack(index: int, z: float, height: float, packed: PackedSteps) -> LayerPlan:
