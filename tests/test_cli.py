@@ -171,3 +171,40 @@ def test_sweep_writes_one_slice_per_combination_and_a_summary(design, tmp_path):
     assert stats["colors"] == 3
     result = run("sweep", design, "-o", out, "--colors", "4,x")
     assert result.exit_code == 2 and "comma-separated" in result.output
+
+
+def _program(*args):
+    """The real program (``python -m fgslice.cli``, as the console script runs it), with
+    stdout and stderr piped, so that only what was flushed before it exited arrives."""
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, "-m", "fgslice.cli", *map(str, args)], capture_output=True, text=True,
+                          timeout=120)
+
+
+def test_program_exits_with_everything_written_and_flushed(design, tmp_path):
+    """The program skips the interpreter's teardown: the G-code, the statistics, the
+    summary on stdout and the warnings on stderr must all be complete before it does."""
+    from fgslice.machine.verify import verify_gcode
+    from fgslice.settings import load_settings
+
+    out, stats = tmp_path / "box.gcode", tmp_path / "box.json"
+    done = _program("slice", design, "-o", out, "--colors", "3", "--stats", stats, "--jobs", "2",
+                    "--strategy", "1", "--set", "min_segment_mm=50")
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith(f"{out}: ") and done.stdout.endswith("\n")
+    assert "warning:" in done.stderr and "min_segment_mm = 50" in done.stderr
+    assert json.loads(stats.read_text())["layers"] == 5
+    text = out.read_text()
+    assert text.rstrip().splitlines()[-1].startswith("; ") and "; filament used [mm] = " in text
+    assert verify_gcode(out, load_settings(None, {})) == []
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["box.gcode", "box.json", "box.vcad"]
+
+
+def test_program_exit_status_of_errors_and_of_click_usage(design, tmp_path):
+    bad = _program("slice", design, "-o", tmp_path / "box.gcode", "--set", "walls=-1")
+    assert bad.returncode == 2 and "walls" in bad.stderr and not (tmp_path / "box.gcode").exists()
+    usage = _program("slice")
+    assert usage.returncode == 2 and "Missing argument" in usage.stderr
+    assert _program("--version").returncode == 0

@@ -8,6 +8,7 @@ no partial output file.
 from __future__ import annotations
 
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -359,5 +360,28 @@ def view_command(gcode, port, open_browser):
     serve(gcode, port=port, open_browser=open_browser)
 
 
+def run() -> None:
+    """The ``fgslice`` program: :func:`main`, then exit at once with its status.
+
+    Everything a command writes is closed by the time it returns (output files by
+    their context managers, worker processes by their pools), so after flushing stdout
+    and stderr the process skips the interpreter's teardown of numpy, shapely, pydantic
+    and the design's objects, about 0.1 s on every command. An unexpected exception
+    propagates as usual (traceback, normal exit).
+    """
+    try:
+        main()
+    except SystemExit as end:
+        code = end.code
+    else:
+        code = 0
+    if isinstance(code, str):
+        print(code, file=sys.stderr)
+        code = 1
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code or 0)
+
+
 if __name__ == "__main__":
-    main()
+    run()
