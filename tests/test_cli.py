@@ -208,3 +208,14 @@ def test_program_exit_status_of_errors_and_of_click_usage(design, tmp_path):
     usage = _program("slice")
     assert usage.returncode == 2 and "Missing argument" in usage.stderr
     assert _program("--version").returncode == 0
+
+
+def test_program_under_a_profiler_exits_normally_so_it_saves_its_data(design, tmp_path):
+    import subprocess
+    import sys
+
+    prof = tmp_path / "slice.prof"
+    done = subprocess.run([sys.executable, "-m", "cProfile", "-o", str(prof), "-m", "fgslice.cli", "slice", str(design),
+                           "-o", str(tmp_path / "box.gcode"), "--jobs", "1"], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert prof.stat().st_size > 0

@@ -366,9 +366,14 @@ def run() -> None:
     Everything a command writes is closed by the time it returns (output files by
     their context managers, worker processes by their pools), so after flushing stdout
     and stderr the process skips the interpreter's teardown of numpy, shapely, pydantic
-    and the design's objects, about 0.1 s on every command. An unexpected exception
+    and the design's objects, about 0.1 s on every command. It exits normally instead
+    (running ``atexit`` handlers) when a profiler or tracer is active (``python -m
+    cProfile``, coverage), so that it can save its data; an unexpected exception also
     propagates as usual (traceback, normal exit).
     """
+    if sys.getprofile() is not None or sys.gettrace() is not None:
+        main()
+        return
     try:
         main()
     except SystemExit as end:
