@@ -134,12 +134,13 @@ class Run:
     stderr: str
 
 
-def measure(cmd: list[str], cwd: Path) -> Run:
-    """Run ``cmd`` and return its wall time, CPU time and peak RSS (its own or any
-    waited-for descendant's, as ``wait4`` reports them on Linux: ru_maxrss in kB)."""
+def measure(cmd: list[str], cwd: Path, env: dict[str, str] | None = None) -> Run:
+    """Run ``cmd`` (in environment ``env``, default this one) and return its wall time,
+    CPU time and peak RSS (its own or any waited-for descendant's, as ``wait4`` reports
+    them on Linux: ru_maxrss in kB)."""
     start = time.perf_counter()
     with tempfile.TemporaryFile(mode="w+") as err:
-        proc = subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.DEVNULL, stderr=err)
+        proc = subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.DEVNULL, stderr=err, env=env)
         _, status, usage = os.wait4(proc.pid, 0)
         wall = time.perf_counter() - start
         proc.returncode = os.waitstatus_to_exitcode(status)
