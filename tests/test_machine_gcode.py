@@ -195,7 +195,7 @@ def test_format_moves_matches_python_formatting():
     assert offsets[-1] == len(text)
 
 
-@pytest.mark.parametrize("decimals", [0, 1, 3, 5])
+@pytest.mark.parametrize("decimals", [0, 1, 2, 3, 4, 5])
 def test_format_lines_writes_every_number_as_python_does(decimals):
     rng = np.random.default_rng(decimals)
     special = [0.0, -0.0, -1e-9, 1e-9, 0.5, -0.5, 1000.0, 999.9999999, 1000000.0, 123456789.0, -12345.6789,

@@ -39,7 +39,7 @@ from fgslice.errors import SliceError
 from fgslice.executor import Consumer, default_jobs, map_ordered
 from fgslice.guards import check_resources
 from fgslice.machine.dialects import make_dialect
-from fgslice.machine.gcode import GcodeWriter, prepare_bodies
+from fgslice.machine.gcode import GcodeWriter, build_number_tables, prepare_bodies
 from fgslice.machine.verify import follow_file, format_faults, verify_gcode, verify_gcode_blocks
 from fgslice.output import atomic_output
 from fgslice.planning.lookahead import apply_lookahead, apply_time_lead
@@ -241,6 +241,7 @@ def slice_to_gcode(
     check_resources(design, settings, len(layers))
     bed_center = np.array([settings.bed_x / 2, settings.bed_y / 2])
     job = SliceJob(design, settings, palette, placement, layers, bed_center)
+    build_number_tables()  # before the workers fork, so they inherit them
 
     with contextlib.ExitStack() as cleanup:
         if callable(thumbnails):

@@ -80,6 +80,12 @@ def fmt(value: float, decimals: int) -> str:
     return "0" if text in ("-0", "") else text
 
 
+XY_DECIMALS = 3
+"""Decimals of X, Y and Z in moves (trailing zeros dropped)."""
+E_DECIMALS = 5
+"""Decimals of E in moves (trailing zeros dropped)."""
+
+
 @cache
 def _digit_tables(decimals: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Byte tables of number pieces, 0 where nothing is printed, and their printed lengths.
@@ -94,13 +100,25 @@ def _digit_tables(decimals: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
     full = (digits + 48).astype(np.uint8)
     lead = np.where(v[:, None] >= [100, 10, 1], full, 0).astype(np.uint8)
     lead[0, 2] = 48
-    f = np.arange(10**decimals)
-    power = 10 ** np.arange(decimals - 1, -1, -1)
-    frac = np.zeros((f.size, decimals + 1), dtype=np.uint8)
-    frac[:, 1:] = np.where(f[:, None] % (10 * power) != 0, f[:, None] // power % 10 + 48, 0)
-    frac[:, 0] = np.where(f != 0, 46, 0)
+    # the decimals of 0..10**decimals - 1, most significant first, by tiling 0..9
+    decimal = np.empty((10**decimals, decimals), dtype=np.uint8)
+    for k in range(decimals):
+        decimal[:, k] = np.repeat(np.tile(np.arange(10, dtype=np.uint8), 10**k), 10 ** (decimals - 1 - k))
+    printed = np.logical_or.accumulate(decimal[:, ::-1] != 0, axis=1)[:, ::-1]  # not a trailing zero
+    frac = np.zeros((10**decimals, decimals + 1), dtype=np.uint8)
+    frac[:, 1:] = np.where(printed, decimal + 48, 0)
+    if decimals:
+        frac[:, 0] = np.where(printed[:, 0], 46, 0)
     return (np.ascontiguousarray(full.T), np.ascontiguousarray(lead.T), np.count_nonzero(lead, axis=1),
             np.ascontiguousarray(frac.T), np.count_nonzero(frac, axis=1))
+
+
+def build_number_tables() -> None:
+    """Build (once per process) the byte tables that coordinates (:data:`XY_DECIMALS`)
+    and extrusions (:data:`E_DECIMALS`) are formatted with; called before worker
+    processes are forked, so that they inherit the tables instead of each building them."""
+    _digit_tables(XY_DECIMALS)
+    _digit_tables(E_DECIMALS)
 
 
 def _number_block(values: np.ndarray, decimals: int) -> tuple[list[np.ndarray], np.ndarray]:
@@ -214,7 +232,7 @@ def _literal(text: str) -> np.ndarray:
 
 def format_moves(x: np.ndarray, y: np.ndarray, e: np.ndarray) -> tuple[str, np.ndarray]:
     """``G1 X<x> Y<y> E<e>`` lines (3, 3 and 5 decimals); see :func:`format_lines`."""
-    return format_lines([("G1 X", x, 3), (" Y", y, 3), (" E", e, 5)])
+    return format_lines([("G1 X", x, XY_DECIMALS), (" Y", y, XY_DECIMALS), (" E", e, E_DECIMALS)])
 
 
 @dataclass
