@@ -158,3 +158,15 @@ def test_sparse_sampling_keeps_every_piece_in_its_color_on_a_curved_field():
     # only stretches shorter than a bead (merged into their neighbour) may hold another color
     assert np.bincount(piece[wrong], minlength=len(lines)).max() * 0.1 < W
     assert wrong.mean() < 1e-3
+
+
+def test_short_piece_quantile_equals_numpy_quantile():
+    """The partial-sort quantile behind the palette suggestion is numpy's default
+    (linear) quantile, to the last bit or two, for any count of pieces."""
+    from fgslice.toolpaths.strategy1 import _quantile
+
+    rng = np.random.default_rng(5)
+    for n in (1, 2, 3, 9, 10, 11, 257, 5000):
+        for q in (0.0, 0.1, 0.5, 0.99, 1.0):
+            values = rng.exponential(4.0, n)
+            assert _quantile(values, q) == pytest.approx(np.quantile(values, q), rel=1e-14, abs=0)
