@@ -239,7 +239,6 @@ _POW10_INT = 10 ** np.arange(17, dtype=np.int64)
 _POW10 = 10.0 ** np.arange(17)
 _LIVE_BYTES = np.array([[(1 << 8 * min(k, 8)) - 1, (1 << 8 * max(k - 8, 0)) - 1] for k in range(17)], dtype=np.uint64)
 _CHUNK = 1 << 16
-_PLAIN_CHUNK = 1 << 16
 
 
 def _ffill(values: np.ndarray, initial: float) -> np.ndarray:
@@ -566,18 +565,25 @@ def _parse_numbers(padded: np.ndarray, begin: np.ndarray) -> tuple[np.ndarray, n
     rounded value, the same as ``float(text)``. Chunks keep the temporaries in cache.
     Returns the values and a validity mask.
     """
+    values, valid, length = _short_numbers(padded, begin)
+    valid &= _END_TABLE[padded[begin + length]]
+    longer = length == 8
+    if longer.any():
+        values[longer], valid[longer] = _parse_chunk(padded, _byte_words(padded), begin[longer])
+    return values, valid
+
+
+def _short_numbers(padded: np.ndarray, begin: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_parse_short` of the numbers at ``padded[begin]``, in pieces of :data:`_CHUNK`
+    that keep the temporaries in cache: values, validity and lengths."""
     words = _byte_words(padded)
     values = np.empty(len(begin))
     valid = np.empty(len(begin), dtype=bool)
+    length = np.empty(len(begin), dtype=np.int64)
     for s in range(0, len(begin), _CHUNK):
-        part = begin[s : s + _CHUNK]
-        value, ok, length = _parse_short(words, part)
-        ok &= _END_TABLE[padded[part + length]]
-        longer = length == 8
-        if longer.any():
-            value[longer], ok[longer] = _parse_chunk(padded, words, part[longer])
-        values[s : s + _CHUNK], valid[s : s + _CHUNK] = value, ok
-    return values, valid
+        piece = slice(s, s + _CHUNK)
+        values[piece], valid[piece], length[piece] = _parse_short(words, begin[piece])
+    return values, valid, length
 
 
 def _byte_words(padded: np.ndarray) -> np.ndarray:
@@ -621,17 +627,9 @@ def _plain_words(padded: np.ndarray, size: int, row_of_line: np.ndarray,
 
 def _parse_plain(padded: np.ndarray, begin: np.ndarray, end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Values of the numbers of at most 7 characters at ``padded[begin:end]``
-    (:func:`_parse_short` in pieces that keep the temporaries in cache) and whether each
-    is valid and ends exactly at ``end``."""
-    words = _byte_words(padded)
-    values = np.empty(len(begin))
-    valid = np.empty(len(begin), dtype=bool)
-    for s in range(0, len(begin), _PLAIN_CHUNK):
-        part = begin[s : s + _PLAIN_CHUNK]
-        value, ok, length = _parse_short(words, part)
-        values[s : s + _PLAIN_CHUNK] = value
-        np.equal(part + length, end[s : s + _PLAIN_CHUNK], out=valid[s : s + _PLAIN_CHUNK])
-        valid[s : s + _PLAIN_CHUNK] &= ok
+    (:func:`_short_numbers`) and whether each is valid and ends exactly at ``end``."""
+    values, valid, length = _short_numbers(padded, begin)
+    valid &= begin + length == end
     return values, valid
 
 
