@@ -52,15 +52,13 @@ import numpy as np
 from fgslice.errors import SettingsError
 from fgslice.machine.dialects import PLACEHOLDER, Dialect, PaletteLike
 from fgslice.machine.thumbnails import thumbnail_block
-from fgslice.planning.plan import EXTRA, STATE, LayerPlan, Prepared, SetState
+from fgslice.planning.plan import EXTRA, ROLE_CODE, ROLES, STATE, LayerPlan, Prepared, SetState
 from fgslice.settings import Settings
 from fgslice.toolpaths.paths import Path, Role, bead_area
 
 INT_DIGITS = 9
 #: Bodies the writer keeps of paths it formatted itself, reused for equal geometry.
 MADE_BODIES = 4096
-ROLES = tuple(Role)
-ROLE_CODE = {role: k for k, role in enumerate(ROLES)}
 TYPE_LINES = [f";TYPE:{role.value}\n" for role in ROLES] + [""]  # the last: no change
 
 

@@ -103,8 +103,7 @@ def order_layer(
         return plan
     n = len(items)
     sequence = np.asarray(color_sequence, dtype=np.int64).reshape(-1)
-    colors = np.fromiter(map(attrgetter("color"), items), dtype=np.int64, count=n)
-    roles = role_codes(map(attrgetter("role"), items))
+    roles, colors, widths, heights, unit = _path_columns(items)
     walls = np.isin(roles, _WALL_ROLE_CODES)
     rank = np.full(max(int(colors.max()), int(sequence.max(initial=0))) + 2, -1, dtype=np.int64)
     rank[sequence[::-1]] = np.arange(sequence.size)[::-1]  # first occurrence wins
@@ -115,7 +114,6 @@ def order_layer(
 
     feature_late = ~walls if feature_order == "walls_first" else walls
     group_key = np.where(colors == SKIRT_COLOR, -1, rank[colors] * 2 + feature_late)
-    unit = np.fromiter(map(attrgetter("group"), items), dtype=np.int64, count=n)
     loose = unit < 0
     _, first_seen, inverse = np.unique(unit, return_index=True, return_inverse=True)
     unit_rank = first_seen[inverse]
@@ -130,8 +128,6 @@ def order_layer(
     new_unit = new_group.copy()
     new_unit[1:] |= unit_rank[1:] != unit_rank[:-1]
     layer = _Layer([items[i] for i in order.tolist()], loose)
-    widths = np.fromiter(map(attrgetter("width"), items), dtype=np.float64, count=n)
-    heights = np.fromiter(map(attrgetter("height"), items), dtype=np.float64, count=n)
     chains = _Chains(layer, new_unit) if not loose.all() else None
     all_unit_starts = np.flatnonzero(new_unit & ~loose).tolist()
 
@@ -152,6 +148,18 @@ def order_layer(
             x, y = _tour(layer, a + units, c, x, y, steps)
     columns = (roles[order], colors[order], widths[order], heights[order], layer.closed_mask, unit[order])
     return LayerPlan.from_packed(paths.index, paths.z, paths.height, layer.pack(steps, *columns))
+
+
+def _path_columns(items: list[Path]) -> tuple[np.ndarray, ...]:
+    """Role codes, colors, widths (mm), heights (mm) and groups of ``items``, one array each."""
+    n = len(items)
+    return (
+        role_codes(map(attrgetter("role"), items)),
+        np.fromiter(map(attrgetter("color"), items), dtype=np.int64, count=n),
+        np.fromiter(map(attrgetter("width"), items), dtype=np.float64, count=n),
+        np.fromiter(map(attrgetter("height"), items), dtype=np.float64, count=n),
+        np.fromiter(map(attrgetter("group"), items), dtype=np.int64, count=n),
+    )
 
 
 class _Steps:
@@ -616,9 +624,6 @@ def travel_tour(paths: Sequence[Path], start_xy: np.ndarray) -> tuple[list[Path]
     out = _Steps()
     layer = _Layer(items, np.ones(len(items), dtype=bool))
     x, y = _tour(layer, 0, len(items), float(position[0]), float(position[1]), out)
-    attributes = (attrgetter(a) for a in ("role", "color", "width", "height", "group"))
-    roles, colors, widths, heights, groups = (list(map(get, items)) for get in attributes)
-    columns = (role_codes(roles), np.array(colors), np.array(widths), np.array(heights), layer.closed_mask,
-               np.array(groups))
-    steps, _ = layer.pack(out, *columns).build()
+    roles, colors, widths, heights, groups = _path_columns(items)
+    steps, _ = layer.pack(out, roles, colors, widths, heights, layer.closed_mask, groups).build()
     return steps, np.array([x, y])
