@@ -43,8 +43,10 @@ from fgslice.settings import Settings
 BED_TOLERANCE_MM = 0.1
 PRIME_ALLOWANCE_MM = 10.0
 MIX_SUM_TOLERANCE = 0.002
-#: Bytes :func:`follow_file` waits for before reading a growing file.
-FOLLOW_BLOCK_BYTES = 4 << 20
+#: Bytes :func:`follow_file` waits for before reading a growing file. What is left when
+#: the writer finishes is checked after it, so smaller blocks shorten that wait (1 MiB: the
+#: vase's verification ends about 0.05 s sooner than with 4 MiB, at the same total CPU).
+FOLLOW_BLOCK_BYTES = 1 << 20
 
 
 class _Runs:
