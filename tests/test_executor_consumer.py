@@ -1,11 +1,12 @@
 """executor.Consumer: a function over a stream of messages in a forked process."""
 
+import gc
 import os
 
 import pytest
 
 from fgslice.errors import SliceError
-from fgslice.executor import Consumer
+from fgslice.executor import Consumer, map_ordered
 
 
 def total_and_pid(messages, scale):
@@ -55,3 +56,21 @@ def test_a_killed_consumer_is_reported_when_next_sent_to():
     with pytest.raises(SliceError, match="worker process died"):
         for k in range(20000):
             consumer.send(k)
+
+
+def frozen_objects(messages):
+    return gc.get_freeze_count()
+
+
+def frozen_in_worker(state, item):
+    return gc.get_freeze_count(), os.getpid()
+
+
+def test_forked_processes_leave_the_parents_objects_out_of_their_collections():
+    marker = [object() for _ in range(1000)]  # objects the parent holds at the fork
+    with Consumer(frozen_objects) as consumer:
+        assert consumer.result() >= len(marker)
+    results = list(map_ordered(frozen_in_worker, None, range(4), jobs=2))
+    assert all(count >= len(marker) for count, _ in results)
+    assert all(pid != os.getpid() for _, pid in results)
+    assert gc.get_freeze_count() == 0  # the parent's own collections are unchanged

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import gc
 import multiprocessing
 import os
 import signal
@@ -60,7 +61,7 @@ class Consumer:
         self._conn, child = context.Pipe()
         self._outcome: tuple[str, Any] | None = None
         self._process = context.Process(target=_consume, args=(fn, child, os.getpid(), args), daemon=True)
-        with _sigint_held():
+        with _sigint_held(), _heap_frozen():
             self._process.start()
         child.close()
 
@@ -188,6 +189,25 @@ def map_ordered(
 
 
 @contextlib.contextmanager
+def _heap_frozen() -> Iterator[None]:
+    """Hide this process's objects from the garbage collector of the processes forked meanwhile.
+
+    A forked child shares the parent's memory pages until it writes to them, and each
+    full collection in the child would walk (and write to the headers of) every object
+    inherited from the parent, copying the pages they lie on. Frozen before the fork
+    (``gc.freeze``), the parent's objects are left out of the child's collections; the
+    parent unfreezes them right after, so its own collections are unchanged. Palette,
+    strategy 1, 16 colors, ``--jobs 2``: 124-126 k page faults -> 120-122 k, and 1.45 ->
+    1.33 s wall in six alternating runs each (a noisy figure on a shared machine).
+    """
+    gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
+
+
+@contextlib.contextmanager
 def _sigint_held() -> Iterator[None]:
     """Hold back Ctrl-C (SIGINT) while the first submissions fork the workers.
 
@@ -212,7 +232,7 @@ def _map_pool(fn, state, items, jobs, window) -> Iterator[Any]:
     pending: deque = deque()
     try:
         iterator = iter(items)
-        with _sigint_held():
+        with _sigint_held(), _heap_frozen():  # the first submission forks the workers
             for item in iterator:
                 pending.append(pool.submit(_call, fn, item))
                 if len(pending) >= window:
