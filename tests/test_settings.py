@@ -1,9 +1,10 @@
 """Settings resolution: defaults, built-in profiles, inheritance, overrides, errors."""
 
+import msgspec
 import pytest
 
 from fgslice.errors import SettingsError
-from fgslice.settings import builtin_profiles, load_settings, parse_overrides
+from fgslice.settings import SETTING_NAMES, Settings, builtin_profiles, describe_settings, load_settings, parse_overrides
 
 
 def test_every_builtin_profile_loads_with_its_dialect():
@@ -70,3 +71,49 @@ def test_inconsistent_settings_are_named_without_dumping_every_value():
     text = info.value.format()
     assert "inconsistent settings" in text and "bead_width" in text
     assert "profile_name" not in text
+
+
+@pytest.mark.parametrize(
+    "pair, takes",
+    [
+        ("walls=-1", "a whole number, at least 0, at most 100"),
+        ("colors=1.5", "a whole number, at least 1, at most 1024"),
+        ("bead_width=abc", "a number, above 0.05, at most 5.0"),
+        ("strategy=3", "one of 1, 2"),
+        ("center=maybe", "true or false"),
+        ("lookahead_mm=xyz", "a number or 'auto'"),
+        ("purge_tower_x=abc", "a number or none"),
+    ],
+)
+def test_an_invalid_value_is_answered_with_what_the_setting_takes(pair, takes):
+    with pytest.raises(SettingsError) as info:
+        load_settings(None, parse_overrides([pair]))
+    key, _, value = pair.partition("=")
+    text = info.value.format()
+    assert f"setting '{key}' = '{value}' is invalid (--set): it takes {takes}" in text
+    assert "its default is" in text
+
+
+def test_strings_of_numbers_and_booleans_become_typed_values():
+    s = load_settings(None, parse_overrides(["walls=3", "bead_width=0.45", "center=false", "strategy=1",
+                                             "lookahead_mm=2.5", "purge_tower_x=none"]))
+    assert (s.walls, s.bead_width, s.center, s.strategy, s.lookahead_mm, s.purge_tower_x) == (3, 0.45, False, 1, 2.5, None)
+    assert type(s.walls) is int and type(s.bead_width) is float
+
+
+def test_settings_made_directly_are_checked_and_read_only():
+    with pytest.raises(msgspec.ValidationError, match="walls"):
+        Settings(walls=-1)
+    with pytest.raises(ValueError, match="bead_width"):
+        Settings(layer_height=0.5, bead_width=0.4)
+    s = Settings(walls=4)
+    with pytest.raises(AttributeError):
+        s.walls = 5
+
+
+def test_every_setting_is_described_with_its_default_in_order():
+    described = describe_settings()
+    defaults = Settings().as_dict()
+    assert [name for name, _, _ in described] == list(defaults) == list(SETTING_NAMES)
+    assert all(description for _, _, description in described)
+    assert all(default == defaults[name] for name, default, _ in described)

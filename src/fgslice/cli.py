@@ -180,11 +180,11 @@ def check_command(design, materials):
 @click.option("--keys", is_flag=True, help="List every setting with its default and meaning.")
 def profiles_command(keys):
     """List the built-in printer profiles (or every setting with --keys)."""
-    from fgslice.settings import Settings, builtin_profiles
+    from fgslice.settings import builtin_profiles, describe_settings
 
     if keys:
-        for name, info in Settings.model_fields.items():
-            click.echo(f"{name} = {info.default!r}  # {info.description}")
+        for name, default, description in describe_settings():
+            click.echo(f"{name} = {default!r}  # {description}")
         return
     for name, description in builtin_profiles().items():
         click.echo(f"{name:20s} {description}")
@@ -365,7 +365,7 @@ def run() -> None:
 
     Everything a command writes is closed by the time it returns (output files by
     their context managers, worker processes by their pools), so after flushing stdout
-    and stderr the process skips the interpreter's teardown of numpy, shapely, pydantic
+    and stderr the process skips the interpreter's teardown of numpy, shapely, msgspec
     and the design's objects, about 0.1 s on every command. It exits normally instead
     (running ``atexit`` handlers) when a profiler or tracer is active (``python -m
     cProfile``, coverage), so that it can save its data; an unexpected exception also

@@ -1,144 +1,154 @@
-"""One validated settings model; printer profiles are TOML files of the same keys.
+"""One validated settings structure; printer profiles are TOML files of the same keys.
 
-Resolution order (later wins): the model's defaults, a built-in profile (or a user's
+Resolution order (later wins): the structure's defaults, a built-in profile (or a user's
 ``--profile FILE.toml``, which may name a built-in it ``inherits``), then each
 ``--set KEY=VALUE``. Units: mm, mm/s, seconds, degrees Celsius, percent where named.
+
+Settings are a frozen ``msgspec`` Struct: every field's type and range is declared with
+its description (``Annotated[type, Meta(...)]``) and checked whenever Settings are made,
+by :func:`load_settings` (which also turns the strings of ``--set`` into numbers and
+booleans) or directly (``Settings(walls=3)``, values of the right types). Every
+command loads settings, so their cost is start-up time: importing this module and
+loading a profile take about 23 ms (a pydantic model of the same fields took 100 ms).
 """
 
 from __future__ import annotations
 
 import tomllib
+import types
+import typing
 from importlib import resources
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+import msgspec
+from msgspec import Meta
 
 from fgslice.errors import SettingsError, did_you_mean
 
 Dialect = Literal["marlin-mixing", "marlin-mixing-m163", "toolchanger", "temperature", "template"]
 
 
-class Settings(BaseModel):
-    """Every setting of a slice. Field descriptions are shown by ``fgslice profiles --keys``."""
-
-    model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=False)
+class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=True):
+    """Every setting with its type, range, default and description (see :class:`Settings`)."""
 
     # -- machine ---------------------------------------------------------------
-    profile_name: str = Field("marlin-mixing", description="name of the profile these settings came from")
-    description: str = Field("", description="one line about the machine")
-    dialect: Dialect = Field("marlin-mixing", description="how a state change is written")
-    channels: int = Field(2, ge=1, le=6, description="mixing channels (A, B, C, ...) of a mixing hotend")
-    tool_count: int = Field(5, ge=1, le=64, description="tools of a toolchanger (T0..Tn-1)")
-    bed_x: float = Field(220.0, gt=0, le=5000, description="bed width, mm")
-    bed_y: float = Field(220.0, gt=0, le=5000, description="bed depth, mm")
-    max_z: float = Field(250.0, gt=0, le=5000, description="build height, mm")
-    nozzle_diameter: float = Field(0.4, gt=0.05, le=5.0, description="nozzle bore, mm")
-    filament_diameter: float = Field(1.75, gt=0.1, le=5.0, description="filament diameter, mm")
-    filament_density: float = Field(1.24, gt=0.1, le=25.0, description="filament density for mass estimates, g/cm^3")
+    profile_name: Annotated[str, Meta(description="name of the profile these settings came from")] = "marlin-mixing"
+    description: Annotated[str, Meta(description="one line about the machine")] = ""
+    dialect: Annotated[Dialect, Meta(description="how a state change is written")] = "marlin-mixing"
+    channels: Annotated[int, Meta(ge=1, le=6, description="mixing channels (A, B, C, ...) of a mixing hotend")] = 2
+    tool_count: Annotated[int, Meta(ge=1, le=64, description="tools of a toolchanger (T0..Tn-1)")] = 5
+    bed_x: Annotated[float, Meta(gt=0, le=5000, description="bed width, mm")] = 220.0
+    bed_y: Annotated[float, Meta(gt=0, le=5000, description="bed depth, mm")] = 220.0
+    max_z: Annotated[float, Meta(gt=0, le=5000, description="build height, mm")] = 250.0
+    nozzle_diameter: Annotated[float, Meta(gt=0.05, le=5.0, description="nozzle bore, mm")] = 0.4
+    filament_diameter: Annotated[float, Meta(gt=0.1, le=5.0, description="filament diameter, mm")] = 1.75
+    filament_density: Annotated[float, Meta(gt=0.1, le=25.0, description="filament density for mass estimates, g/cm^3")] = 1.24
 
     # -- state of a color ---------------------------------------------------------
-    temperature_a: float = Field(190.0, ge=0, le=500, description="nozzle temperature at 100% material A (temperature dialect), C")
-    temperature_b: float = Field(225.0, ge=0, le=500, description="nozzle temperature at 100% material B (temperature dialect), C")
-    flow_model: Literal["none", "pla", "tpu"] = Field("none", description="foaming flow compensation polynomial (M221)")
-    state_template: str = Field(
-        "",
-        description="template dialect: text emitted per state change; placeholders {color}, {f0}..{f5} (0-1), {pct0}..{pct5} (0-100), {pwm0}..{pwm5} (0-255), {temperature}",
-    )
+    temperature_a: Annotated[float, Meta(ge=0, le=500, description="nozzle temperature at 100% material A (temperature dialect), C")] = 190.0
+    temperature_b: Annotated[float, Meta(ge=0, le=500, description="nozzle temperature at 100% material B (temperature dialect), C")] = 225.0
+    flow_model: Annotated[Literal["none", "pla", "tpu"], Meta(description="foaming flow compensation polynomial (M221)")] = "none"
+    state_template: Annotated[str, Meta(description="template dialect: text emitted per state change; placeholders {color}, {f0}..{f5} (0-1), {pct0}..{pct5} (0-100), {pwm0}..{pwm5} (0-255), {temperature}")] = ""
 
     # -- process -------------------------------------------------------------------
-    layer_height: float = Field(0.2, gt=0.01, le=2.0, description="layer height h, mm")
-    bead_width: float = Field(0.4, gt=0.05, le=5.0, description="extrusion bead width w, mm")
-    strategy: Literal[1, 2] = Field(2, description="1: walls/skins/infill cut into colors; 2: faces filled densely")
-    colors: int = Field(4, ge=1, le=1024, description="palette size N")
-    fill_pattern: Literal["concentric", "rectilinear"] = Field("concentric", description="strategy 2 fill")
-    walls: int = Field(2, ge=0, le=100, description="strategy 1 perimeters")
-    wall_order: Literal["outer_first", "inner_first"] = Field("inner_first", description="strategy 1 perimeter order")
-    top_layers: int = Field(3, ge=0, le=100, description="strategy 1 top solid layers")
-    bottom_layers: int = Field(3, ge=0, le=100, description="strategy 1 bottom solid layers")
-    infill_density: float = Field(20.0, ge=0, le=100, description="strategy 1 sparse infill, percent")
-    infill_pattern: Literal["rectilinear", "concentric"] = Field("rectilinear", description="strategy 1 sparse infill pattern")
-    infill_angle: float = Field(45.0, ge=-360, le=360, description="direction of rectilinear lines on even layers, degrees")
-    feature_order: Literal["walls_first", "infill_first"] = Field("walls_first", description="within a color, strategy 1")
-    min_segment_mm: float = Field(5.0, ge=0, le=1000, description="strategy 1 warns when color pieces are shorter, mm")
-    zipper: float = Field(0.0, ge=0, le=100, description="zipper overlap band beta, percent of the gradient range")
-    gcode_resolution: float = Field(0.0125, gt=0, le=1.0, description="path simplification tolerance, mm")
+    layer_height: Annotated[float, Meta(gt=0.01, le=2.0, description="layer height h, mm")] = 0.2
+    bead_width: Annotated[float, Meta(gt=0.05, le=5.0, description="extrusion bead width w, mm")] = 0.4
+    strategy: Annotated[Literal[1, 2], Meta(description="1: walls/skins/infill cut into colors; 2: faces filled densely")] = 2
+    colors: Annotated[int, Meta(ge=1, le=1024, description="palette size N")] = 4
+    fill_pattern: Annotated[Literal["concentric", "rectilinear"], Meta(description="strategy 2 fill")] = "concentric"
+    walls: Annotated[int, Meta(ge=0, le=100, description="strategy 1 perimeters")] = 2
+    wall_order: Annotated[Literal["outer_first", "inner_first"], Meta(description="strategy 1 perimeter order")] = "inner_first"
+    top_layers: Annotated[int, Meta(ge=0, le=100, description="strategy 1 top solid layers")] = 3
+    bottom_layers: Annotated[int, Meta(ge=0, le=100, description="strategy 1 bottom solid layers")] = 3
+    infill_density: Annotated[float, Meta(ge=0, le=100, description="strategy 1 sparse infill, percent")] = 20.0
+    infill_pattern: Annotated[Literal["rectilinear", "concentric"], Meta(description="strategy 1 sparse infill pattern")] = "rectilinear"
+    infill_angle: Annotated[float, Meta(ge=-360, le=360, description="direction of rectilinear lines on even layers, degrees")] = 45.0
+    feature_order: Annotated[Literal["walls_first", "infill_first"], Meta(description="within a color, strategy 1")] = "walls_first"
+    min_segment_mm: Annotated[float, Meta(ge=0, le=1000, description="strategy 1 warns when color pieces are shorter, mm")] = 5.0
+    zipper: Annotated[float, Meta(ge=0, le=100, description="zipper overlap band beta, percent of the gradient range")] = 0.0
+    gcode_resolution: Annotated[float, Meta(gt=0, le=1.0, description="path simplification tolerance, mm")] = 0.0125
 
     # -- placement -------------------------------------------------------------------
-    center: bool = Field(True, description="center the part on the bed")
-    position_x: float = Field(0.0, ge=-5000, le=5000, description="part center X when center = false, mm")
-    position_y: float = Field(0.0, ge=-5000, le=5000, description="part center Y when center = false, mm")
-    skirt_loops: int = Field(1, ge=0, le=20, description="loops around the part on the first layer")
-    skirt_distance: float = Field(3.0, ge=0, le=100, description="gap between skirt and part, mm")
+    center: Annotated[bool, Meta(description="center the part on the bed")] = True
+    position_x: Annotated[float, Meta(ge=-5000, le=5000, description="part center X when center = false, mm")] = 0.0
+    position_y: Annotated[float, Meta(ge=-5000, le=5000, description="part center Y when center = false, mm")] = 0.0
+    skirt_loops: Annotated[int, Meta(ge=0, le=20, description="loops around the part on the first layer")] = 1
+    skirt_distance: Annotated[float, Meta(ge=0, le=100, description="gap between skirt and part, mm")] = 3.0
 
     # -- purge and dead volume -------------------------------------------------------
-    purge: bool = Field(True, description="strategy 1 purge tower on state changes")
-    melt_volume_mm3: float = Field(68.5, ge=0, le=10000, description="melt chamber volume V_melt, mm^3")
-    purge_scale_by_change: bool = Field(False, description="scale purge by the size of the state change")
-    purge_tower_x: float | None = Field(None, description="tower center X (bed frame), mm; None: automatic")
-    purge_tower_y: float | None = Field(None, description="tower center Y (bed frame), mm; None: automatic")
-    lookahead_mm: float | Literal["auto"] = Field(0.0, description="issue state changes this far ahead (extruded path length), mm; 'auto' derives it from melt_volume_mm3")
-    temperature_lead_s: float = Field(0.0, ge=0, le=3600, description="temperature dialect: issue changes this long ahead, s")
-    tau_s: float = Field(8.0, gt=0, le=3600, description="thermal time constant of the hotend for simulation, s")
-    mixing_share: float = Field(0.3, ge=0, le=1, description="share of the melt chamber that is well mixed (simulation)")
+    purge: Annotated[bool, Meta(description="strategy 1 purge tower on state changes")] = True
+    melt_volume_mm3: Annotated[float, Meta(ge=0, le=10000, description="melt chamber volume V_melt, mm^3")] = 68.5
+    purge_scale_by_change: Annotated[bool, Meta(description="scale purge by the size of the state change")] = False
+    purge_tower_x: Annotated[float | None, Meta(description="tower center X (bed frame), mm; None: automatic")] = None
+    purge_tower_y: Annotated[float | None, Meta(description="tower center Y (bed frame), mm; None: automatic")] = None
+    lookahead_mm: Annotated[float | Literal["auto"], Meta(description="issue state changes this far ahead (extruded path length), mm; 'auto' derives it from melt_volume_mm3")] = 0.0
+    temperature_lead_s: Annotated[float, Meta(ge=0, le=3600, description="temperature dialect: issue changes this long ahead, s")] = 0.0
+    tau_s: Annotated[float, Meta(gt=0, le=3600, description="thermal time constant of the hotend for simulation, s")] = 8.0
+    mixing_share: Annotated[float, Meta(ge=0, le=1, description="share of the melt chamber that is well mixed (simulation)")] = 0.3
 
     # -- speeds, mm/s ----------------------------------------------------------------
-    print_speed: float = Field(40.0, gt=0, le=1000, description="perimeters and solid fill, mm/s")
-    outer_wall_speed: float = Field(25.0, gt=0, le=1000, description="external perimeters, mm/s")
-    infill_speed: float = Field(60.0, gt=0, le=1000, description="sparse infill, mm/s")
-    first_layer_speed: float = Field(20.0, gt=0, le=1000, description="every extrusion on layer 0, mm/s")
-    travel_speed: float = Field(150.0, gt=0, le=2000, description="travel moves, mm/s")
-    z_speed: float = Field(10.0, gt=0, le=500, description="Z moves, mm/s")
+    print_speed: Annotated[float, Meta(gt=0, le=1000, description="perimeters and solid fill, mm/s")] = 40.0
+    outer_wall_speed: Annotated[float, Meta(gt=0, le=1000, description="external perimeters, mm/s")] = 25.0
+    infill_speed: Annotated[float, Meta(gt=0, le=1000, description="sparse infill, mm/s")] = 60.0
+    first_layer_speed: Annotated[float, Meta(gt=0, le=1000, description="every extrusion on layer 0, mm/s")] = 20.0
+    travel_speed: Annotated[float, Meta(gt=0, le=2000, description="travel moves, mm/s")] = 150.0
+    z_speed: Annotated[float, Meta(gt=0, le=500, description="Z moves, mm/s")] = 10.0
 
     # -- retraction ------------------------------------------------------------------
-    retract_length: float = Field(0.8, ge=0, le=50, description="retraction length, mm of filament")
-    retract_speed: float = Field(35.0, gt=0, le=500, description="retraction speed, mm/s")
-    retract_min_travel: float = Field(1.0, ge=0, le=1000, description="retract only on travels longer than this, mm")
-    z_hop: float = Field(0.0, ge=0, le=10, description="lift on retracted travels, mm")
+    retract_length: Annotated[float, Meta(ge=0, le=50, description="retraction length, mm of filament")] = 0.8
+    retract_speed: Annotated[float, Meta(gt=0, le=500, description="retraction speed, mm/s")] = 35.0
+    retract_min_travel: Annotated[float, Meta(ge=0, le=1000, description="retract only on travels longer than this, mm")] = 1.0
+    z_hop: Annotated[float, Meta(ge=0, le=10, description="lift on retracted travels, mm")] = 0.0
 
     # -- temperatures and cooling ----------------------------------------------------
-    nozzle_temperature: float = Field(210.0, ge=0, le=500, description="nozzle temperature, C")
-    bed_temperature: float = Field(60.0, ge=0, le=200, description="bed temperature, C")
-    fan_speed: float = Field(100.0, ge=0, le=100, description="part cooling fan, percent")
-    fan_off_layers: int = Field(1, ge=0, le=1000, description="layers printed with the fan off")
+    nozzle_temperature: Annotated[float, Meta(ge=0, le=500, description="nozzle temperature, C")] = 210.0
+    bed_temperature: Annotated[float, Meta(ge=0, le=200, description="bed temperature, C")] = 60.0
+    fan_speed: Annotated[float, Meta(ge=0, le=100, description="part cooling fan, percent")] = 100.0
+    fan_off_layers: Annotated[int, Meta(ge=0, le=1000, description="layers printed with the fan off")] = 1
 
     # -- machine limits (checked by verify) ------------------------------------------
-    max_nozzle_temperature: float = Field(300.0, ge=0, le=600, description="hottest nozzle allowed, C")
-    max_bed_temperature: float = Field(120.0, ge=0, le=300, description="hottest bed allowed, C")
-    min_extrude_temperature: float = Field(170.0, ge=0, le=600, description="no extrusion below this nozzle temperature, C")
-    max_cross_section_mm2: float = Field(2.0, gt=0, le=100, description="largest extruded cross-section (E volume per mm of XY travel), mm^2")
-    min_flow_percent: float = Field(10.0, ge=0, le=1000, description="smallest M221 flow allowed, percent")
-    max_flow_percent: float = Field(200.0, ge=0, le=1000, description="largest M221 flow allowed, percent")
+    max_nozzle_temperature: Annotated[float, Meta(ge=0, le=600, description="hottest nozzle allowed, C")] = 300.0
+    max_bed_temperature: Annotated[float, Meta(ge=0, le=300, description="hottest bed allowed, C")] = 120.0
+    min_extrude_temperature: Annotated[float, Meta(ge=0, le=600, description="no extrusion below this nozzle temperature, C")] = 170.0
+    max_cross_section_mm2: Annotated[float, Meta(gt=0, le=100, description="largest extruded cross-section (E volume per mm of XY travel), mm^2")] = 2.0
+    min_flow_percent: Annotated[float, Meta(ge=0, le=1000, description="smallest M221 flow allowed, percent")] = 10.0
+    max_flow_percent: Annotated[float, Meta(ge=0, le=1000, description="largest M221 flow allowed, percent")] = 200.0
 
     # -- G-code text -----------------------------------------------------------------
-    start_gcode: str = Field(
-        "G28 ; home\nG90\nM83\nM140 S{bed_temperature}\nM104 S{nozzle_temperature}\nM190 S{bed_temperature}\nM109 S{nozzle_temperature}\nG92 E0",
-        description="emitted before the first layer; placeholders {nozzle_temperature} {bed_temperature}",
-    )
-    end_gcode: str = Field(
-        "M104 S0\nM140 S0\nM107\nG91\nG1 Z5 F600\nG90\nM84",
-        description="emitted after the last layer",
-    )
-    thumbnails: str = Field("16x16,220x124", description="thumbnail sizes WxH, comma separated; empty for none")
+    start_gcode: Annotated[str, Meta(description="emitted before the first layer; placeholders {nozzle_temperature} {bed_temperature}")] = "G28 ; home\nG90\nM83\nM140 S{bed_temperature}\nM104 S{nozzle_temperature}\nM190 S{bed_temperature}\nM109 S{nozzle_temperature}\nG92 E0"
+    end_gcode: Annotated[str, Meta(description="emitted after the last layer")] = "M104 S0\nM140 S0\nM107\nG91\nG1 Z5 F600\nG90\nM84"
+    thumbnails: Annotated[str, Meta(description="thumbnail sizes WxH, comma separated; empty for none")] = "16x16,220x124"
 
-    @model_validator(mode="after")
-    def _consistent(self) -> "Settings":
+
+class Settings(_Fields, kw_only=True, frozen=True, forbid_unknown_fields=True):
+    """Every setting of a slice. Field descriptions are shown by ``fgslice profiles --keys``.
+
+    Raises (when made):
+        ValueError: a value of the wrong type or out of range (``msgspec.ValidationError``),
+            or settings that contradict each other; :func:`load_settings` turns either
+            into a :class:`~fgslice.errors.SettingsError`.
+    """
+
+    def __post_init__(self) -> None:
+        msgspec.convert(msgspec.structs.asdict(self), _Fields)  # each field's type and range
         if self.bead_width < self.layer_height:
             raise ValueError(
                 f"bead_width ({self.bead_width} mm) must be at least layer_height ({self.layer_height} mm)"
             )
-        from fgslice.toolpaths.paths import bead_area
-
-        area = bead_area(self.bead_width, self.layer_height)
+        area = self.bead_area
         if area > self.max_cross_section_mm2:
             raise ValueError(
                 f"a {self.bead_width} x {self.layer_height} mm bead has a {area:.3f} mm^2 cross-section, more than "
                 f"this machine's max_cross_section_mm2 = {self.max_cross_section_mm2}; use a smaller bead or layer, "
                 "or raise max_cross_section_mm2 if the machine can extrude that much"
             )
-        if isinstance(self.lookahead_mm, float) and self.lookahead_mm < 0:
+        if self.lookahead_mm != "auto" and self.lookahead_mm < 0:
             raise ValueError("lookahead_mm must be >= 0 or 'auto'")
-        return self
+
+    def as_dict(self) -> dict[str, Any]:
+        """Every setting by name, in declaration order."""
+        return msgspec.structs.asdict(self)
 
     @property
     def bead_area(self) -> float:
@@ -216,48 +226,84 @@ def _flatten(values: dict[str, Any]) -> dict[str, Any]:
     return flat
 
 
-def _raise_validation(exc: ValidationError, origin: str) -> None:
-    first = exc.errors()[0]
-    key = ".".join(str(p) for p in first["loc"]) or "settings"
-    if first["type"] == "extra_forbidden":
-        raise SettingsError(
-            f"unknown setting '{key}' ({origin})",
-            hint=did_you_mean(key, Settings.model_fields) or "run 'fgslice profiles --keys' for the list",
-        ) from None
-    msg = first["msg"].removeprefix("Value error, ")
-    if not first["loc"]:
-        raise SettingsError(f"inconsistent settings ({origin}): {msg}") from None
-    raise SettingsError(f"setting '{key}' = {first.get('input')!r} is invalid ({origin}): {msg}") from None
+#: Every setting's name, in declaration order.
+SETTING_NAMES: tuple[str, ...] = _Fields.__struct_fields__
+
+
+def describe_settings() -> list[tuple[str, Any, str]]:
+    """``(name, default, description)`` of every setting, in declaration order."""
+    hints = typing.get_type_hints(_Fields, include_extras=True)
+    defaults = _Fields()
+    return [(name, getattr(defaults, name), hints[name].__metadata__[0].description) for name in SETTING_NAMES]
+
+
+_KINDS = {int: "a whole number", float: "a number", bool: "true or false", str: "text", type(None): "none"}
+
+
+def _expected(key: str) -> str:
+    """What setting ``key`` accepts, in words: its kind and range (``a whole number, at
+    least 0, at most 100``; ``one of 1, 2``; ``a number or 'auto'``)."""
+    kind, meta = typing.get_args(typing.get_type_hints(_Fields, include_extras=True)[key])
+    options = typing.get_args(kind) if typing.get_origin(kind) in (typing.Union, types.UnionType) else (kind,)
+    words = []
+    for option in options:
+        if typing.get_origin(option) is Literal:
+            words.append(", ".join(map(repr, typing.get_args(option))))
+        else:
+            words.append(_KINDS[option])
+    text = " or ".join(words)
+    if len(options) == 1 and typing.get_origin(kind) is Literal:
+        text = "one of " + text
+    limits = (("gt", "above"), ("ge", "at least"), ("lt", "below"), ("le", "at most"))
+    return ", ".join([text] + [f"{word} {getattr(meta, name)}" for name, word in limits if getattr(meta, name) is not None])
+
+
+def _unknown_key(key: str, origin: str) -> SettingsError:
+    return SettingsError(
+        f"unknown setting '{key}' ({origin})",
+        hint=did_you_mean(key, SETTING_NAMES) or "run 'fgslice profiles --keys' for the list",
+    )
+
+
+def _validated(values: dict[str, Any], origin: str) -> Settings:
+    """``values`` as Settings (strings of numbers and booleans converted); a
+    SettingsError naming the key, its value and the rule it breaks otherwise."""
+    try:
+        return msgspec.convert(values, Settings, strict=False)
+    except msgspec.ValidationError as exc:
+        message = str(exc)
+    unknown = message.removeprefix("Object contains unknown field `")
+    if unknown != message:
+        raise _unknown_key(unknown.partition("`")[0], origin) from None
+    _, at, path = message.rpartition(" - at `$.")
+    if not at:
+        raise SettingsError(f"inconsistent settings ({origin}): {message}") from None
+    key = path.rstrip("`")
+    raise SettingsError(
+        f"setting '{key}' = {values.get(key)!r} is invalid ({origin}): it takes {_expected(key)}",
+        hint=f"its default is {getattr(_Fields(), key)!r}",
+    ) from None
 
 
 def parse_overrides(pairs: list[str] | tuple[str, ...]) -> dict[str, str]:
-    """``["key=value", ...]`` to a dict; values stay strings for the model to coerce."""
+    """``["key=value", ...]`` to a dict; values stay strings for :func:`load_settings` to convert."""
     out: dict[str, str] = {}
     for pair in pairs:
         key, sep, value = pair.partition("=")
         key = key.strip()
         if not sep or not key:
             raise SettingsError(f"--set expects KEY=VALUE, got '{pair}'", hint="for example --set walls=3")
-        if key not in Settings.model_fields:
-            raise SettingsError(
-                f"unknown setting '{key}' (--set)",
-                hint=did_you_mean(key, Settings.model_fields) or "run 'fgslice profiles --keys' for the list",
-            )
+        if key not in SETTING_NAMES:
+            raise _unknown_key(key, "--set")
         out[key] = value.strip().replace("\\n", "\n")
     return out
 
 
 def _coerce(key: str, value: Any) -> Any:
-    """Turn a --set string into the type a field expects where pydantic would not."""
+    """A --set string the conversion would not turn into what the field expects: 'none',
+    'auto' or nothing for the purge tower's position (automatic)."""
     if isinstance(value, str) and key in ("purge_tower_x", "purge_tower_y") and value.lower() in ("none", "auto", ""):
         return None
-    if isinstance(value, str) and key == "lookahead_mm" and value != "auto":
-        try:
-            return float(value)
-        except ValueError:
-            return value
-    if isinstance(value, str) and key == "strategy" and value.strip() in ("1", "2"):
-        return int(value)
     return value
 
 
@@ -269,16 +315,9 @@ def load_settings(profile: str | None = None, overrides: dict[str, Any] | None =
     """
     name = profile or "marlin-mixing"
     values = _flatten(_profile_values(name))
-    origin = f"profile {name}"
-    try:
-        settings = Settings(**values)
-    except ValidationError as exc:
-        _raise_validation(exc, origin)
+    settings = _validated(values, f"profile {name}")
     if overrides:
-        merged = settings.model_dump()
+        merged = settings.as_dict()
         merged.update({k: _coerce(k, v) for k, v in overrides.items()})
-        try:
-            settings = Settings(**merged)
-        except ValidationError as exc:
-            _raise_validation(exc, "--set")
+        settings = _validated(merged, "--set")
     return settings

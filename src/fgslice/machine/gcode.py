@@ -507,7 +507,7 @@ class GcodeWriter:
         text = "\n".join(lines) + "\n"
         text += "".join(thumbnail_block(png, w, h) for png, w, h in self.thumbnails)
         lines = [""] + [f"; {k} = {_one_line(v)}" for k, v in self.comments.items()]
-        lines += [f"; {k} = {_one_line(v)}" for k, v in s.model_dump().items()]
+        lines += [f"; {k} = {_one_line(v)}" for k, v in s.as_dict().items()]
         lines.append(f"; palette = {self.palette.size} colors of {self.palette.n_materials} materials, dialect {self.dialect.name}")
         lines += [
             f"; color {c} = {self.palette.label(c)} : {self.dialect.describe(c)}" for c in range(self.palette.size)

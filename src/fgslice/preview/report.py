@@ -93,7 +93,7 @@ def _table(rows: list[tuple[str, str]], numeric: bool = True) -> str:
 
 
 def _settings_section(settings) -> str:
-    values = settings.model_dump() if hasattr(settings, "model_dump") else dict(settings)
+    values = settings.as_dict() if hasattr(settings, "as_dict") else dict(settings)
     rows = [(k, str(v).replace("\n", " | ")) for k, v in values.items()]
     return f'<section id="settings"><h2>Settings</h2><div class="settings">{_table(rows, numeric=False)}</div></section>'
 
