@@ -14,6 +14,9 @@ on first use, so ``import fgslice`` (and the command line) starts quickly.
 
 from importlib import import_module
 
+__version__ = "0.1.0"
+"""The package version (read by the build for its metadata; written in every G-code header)."""
+
 _EXPORTS = {
     "api": "fgslice.design",
     "check_design": "fgslice.design",

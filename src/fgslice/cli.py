@@ -14,6 +14,7 @@ from pathlib import Path
 
 import click
 
+import fgslice
 from fgslice.errors import FgsliceError
 
 
@@ -36,7 +37,7 @@ class _Group(click.Group):
 
 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
-@click.version_option(package_name="fgslice")
+@click.version_option(version=fgslice.__version__, prog_name="fgslice")
 def main() -> None:
     """fgslice: slice functionally graded multi-material designs to G-code."""
 

@@ -44,11 +44,11 @@ from dataclasses import dataclass
 from functools import cache
 from operator import attrgetter
 from datetime import datetime, timezone
-from importlib import metadata
 from typing import TextIO
 
 import numpy as np
 
+import fgslice
 from fgslice.errors import SettingsError
 from fgslice.machine.dialects import PLACEHOLDER, Dialect, PaletteLike
 from fgslice.machine.thumbnails import thumbnail_block
@@ -63,11 +63,9 @@ TYPE_LINES = [f";TYPE:{role.value}\n" for role in ROLES] + [""]  # the last: no 
 
 
 def fgslice_version() -> str:
-    """The installed fgslice version."""
-    try:
-        return metadata.version("fgslice")
-    except metadata.PackageNotFoundError:
-        return "0+unknown"
+    """The fgslice version (``fgslice.__version__``, which is also the package's
+    metadata: no package metadata is read at run time)."""
+    return fgslice.__version__
 
 
 def fmt(value: float, decimals: int) -> str:
