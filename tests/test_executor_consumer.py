@@ -74,3 +74,24 @@ def test_forked_processes_leave_the_parents_objects_out_of_their_collections():
     assert all(count >= len(marker) for count, _ in results)
     assert all(pid != os.getpid() for _, pid in results)
     assert gc.get_freeze_count() == 0  # the parent's own collections are unchanged
+
+
+def square_and_pid(state, item):
+    return item * item + state, os.getpid()
+
+
+@pytest.mark.parametrize("count", [2, 10, 1000])
+def test_pool_results_come_in_order_however_the_items_are_grouped_into_tasks(count):
+    results = list(map_ordered(square_and_pid, 7, range(count), jobs=2))
+    assert [value for value, _ in results] == [i * i + 7 for i in range(count)]
+    assert os.getpid() not in {pid for _, pid in results}
+
+
+def test_items_go_to_the_pool_in_consecutive_runs_enough_to_balance_the_workers():
+    from fgslice.executor import TASKS_PER_WORKER, _runs
+
+    for count, jobs in [(10, 2), (240, 2), (500, 2), (500, 8), (3, 4)]:
+        runs = _runs(list(range(count)), jobs)
+        assert [i for run in runs for i in run] == list(range(count))
+        assert len(runs) >= min(count, jobs * TASKS_PER_WORKER)
+        assert len({len(run) for run in runs[:-1]}) <= 1 and len(runs[-1]) <= len(runs[0])

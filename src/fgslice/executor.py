@@ -143,8 +143,21 @@ def _consume(fn: Callable[..., Any], conn: Any, parent: int, args: tuple) -> Non
     conn.close()
 
 
-def _call(fn: Callable[[Any, Any], Any], item: Any) -> Any:
-    return fn(_STATE, item)
+def _call(fn: Callable[[Any, Any], Any], chunk: list) -> list:
+    return [fn(_STATE, item) for item in chunk]
+
+
+#: A pool is handed the items in runs of consecutive ones, about this many runs per
+#: worker: each task costs the parent about 0.3 ms (futures, queues, threads), so a
+#: 240-layer run in 64 tasks instead of 240 saves it ~0.05 s of CPU, while the last
+#: runs stay short enough to keep the workers evenly busy to the end.
+TASKS_PER_WORKER = 32
+
+
+def _runs(items: list, jobs: int) -> list[list]:
+    """``items`` cut into consecutive runs, :data:`TASKS_PER_WORKER` per worker or more."""
+    size = max(1, len(items) // (jobs * TASKS_PER_WORKER))
+    return [items[i : i + size] for i in range(0, len(items), size)]
 
 
 def default_jobs() -> int:
@@ -229,20 +242,22 @@ def _sigint_held() -> Iterator[None]:
 def _map_pool(fn, state, items, jobs, window) -> Iterator[Any]:
     context = multiprocessing.get_context("fork")
     pool = ProcessPoolExecutor(max_workers=jobs, mp_context=context, initializer=_init_worker, initargs=(state, os.getpid()))
+    runs = _runs(items, jobs)
+    window = max(2 * jobs, window // len(runs[0]))  # runs in flight, about ``window`` items
     pending: deque = deque()
     try:
-        iterator = iter(items)
+        iterator = iter(runs)
         with _sigint_held(), _heap_frozen():  # the first submission forks the workers
-            for item in iterator:
-                pending.append(pool.submit(_call, fn, item))
+            for run in iterator:
+                pending.append(pool.submit(_call, fn, run))
                 if len(pending) >= window:
                     break
         while pending:
-            result = pending.popleft().result()
-            for item in iterator:
-                pending.append(pool.submit(_call, fn, item))
+            results = pending.popleft().result()
+            for run in iterator:
+                pending.append(pool.submit(_call, fn, run))
                 break
-            yield result
+            yield from results
     except BrokenProcessPool:
         raise SliceError(
             "a worker process died while slicing (killed, or out of memory); no output was written",
