@@ -90,8 +90,9 @@ def test_pool_results_come_in_order_however_the_items_are_grouped_into_tasks(cou
 def test_items_go_to_the_pool_in_consecutive_runs_enough_to_balance_the_workers():
     from fgslice.executor import TASKS_PER_WORKER, _runs
 
-    for count, jobs in [(10, 2), (240, 2), (500, 2), (500, 8), (3, 4)]:
-        runs = _runs(list(range(count)), jobs)
+    for count, jobs in [(10, 2), (240, 2), (500, 2), (500, 8), (3, 4), (100_000, 2)]:
+        runs = _runs(list(range(count)), jobs, window=64)
         assert [i for run in runs for i in run] == list(range(count))
         assert len(runs) >= min(count, jobs * TASKS_PER_WORKER)
+        assert 2 * jobs * len(runs[0]) <= 64 or len(runs[0]) == 1  # two runs per worker in the window
         assert len({len(run) for run in runs[:-1]}) <= 1 and len(runs[-1]) <= len(runs[0])

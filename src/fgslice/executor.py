@@ -154,9 +154,10 @@ def _call(fn: Callable[[Any, Any], Any], chunk: list) -> list:
 TASKS_PER_WORKER = 32
 
 
-def _runs(items: list, jobs: int) -> list[list]:
-    """``items`` cut into consecutive runs, :data:`TASKS_PER_WORKER` per worker or more."""
-    size = max(1, len(items) // (jobs * TASKS_PER_WORKER))
+def _runs(items: list, jobs: int, window: int) -> list[list]:
+    """``items`` cut into consecutive runs, :data:`TASKS_PER_WORKER` per worker or more,
+    and short enough for two runs per worker to fit in ``window`` items."""
+    size = max(1, min(len(items) // (jobs * TASKS_PER_WORKER), window // (2 * jobs)))
     return [items[i : i + size] for i in range(0, len(items), size)]
 
 
@@ -242,8 +243,8 @@ def _sigint_held() -> Iterator[None]:
 def _map_pool(fn, state, items, jobs, window) -> Iterator[Any]:
     context = multiprocessing.get_context("fork")
     pool = ProcessPoolExecutor(max_workers=jobs, mp_context=context, initializer=_init_worker, initargs=(state, os.getpid()))
-    runs = _runs(items, jobs)
-    window = max(2 * jobs, window // len(runs[0]))  # runs in flight, about ``window`` items
+    runs = _runs(items, jobs, window)
+    window = max(2 * jobs, window // len(runs[0]))  # runs in flight: at most ``window`` items
     pending: deque = deque()
     try:
         iterator = iter(runs)
