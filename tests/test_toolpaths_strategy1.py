@@ -8,6 +8,7 @@ from fgslice.settings import Settings
 from fgslice.slicing.layers import LayerRegions
 from fgslice.slicing.palette import Palette
 from fgslice.toolpaths import strategy1
+from fgslice.toolpaths.infill import uncovered_area
 from fgslice.toolpaths.strategy1 import summarize_short_pieces
 from fgslice.toolpaths.paths import Role, bead_area
 
@@ -170,3 +171,11 @@ def test_short_piece_quantile_equals_numpy_quantile():
         for q in (0.0, 0.1, 0.5, 0.99, 1.0):
             values = rng.exponential(4.0, n)
             assert _quantile(values, q) == pytest.approx(np.quantile(values, q), rel=1e-14, abs=0)
+
+
+def test_uncovered_area_is_what_no_bead_fits_in():
+    fin = shapely.box(60, 10, 70, 10.3)  # 10 mm long, 0.3 mm thick: narrower than a bead
+    outline = shapely.MultiPolygon([plate().geoms[0].union(fin)])
+    (lp, _), _ = run(Settings(strategy=1, walls=2, infill_density=20), outline=outline)
+    assert lp.uncovered_mm2 == pytest.approx(uncovered_area(outline, W), rel=1e-9)
+    assert lp.uncovered_mm2 == pytest.approx(10 * 0.3, rel=0.05)
