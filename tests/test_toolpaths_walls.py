@@ -5,8 +5,7 @@ import pytest
 import shapely
 
 from fgslice.toolpaths.paths import Role
-from fgslice.toolpaths.simplify import simplify_polygons
-from fgslice.toolpaths.walls import OUTLINE_TOLERANCE, bead_spacing, make_walls, offset, offset_polygons
+from fgslice.toolpaths.walls import OUTLINE_TOLERANCE, bead_spacing, make_walls, offset, offset_polygons, simplify_outline
 
 W, H = 0.4, 0.2
 
@@ -97,13 +96,12 @@ def ellipse():
 def test_loops_are_the_opened_erosions(shape):
     # loop k is the boundary of the outline eroded by w/2 + k s and opened by s/2, whether
     # the opening is skipped (no event between levels) or computed (the neck); the
-    # outline is simplified first
-    outline, count = shape(), 6
+    # outline comes simplified (as strategy 1 slices it), within the tolerance of the shape
+    simple, count = simplify_outline(shape()), 6
+    assert shapely.hausdorff_distance(simple, shape()) <= OUTLINE_TOLERANCE
     s = bead_spacing(W, H)
-    walls = make_walls(outline, count, W, H, outer_first=True)
+    walls = make_walls(simple, count, W, H, outer_first=True)
     dist = W / 2 + s * np.arange(count)
-    simple = simplify_polygons(outline, OUTLINE_TOLERANCE)
-    assert shapely.hausdorff_distance(simple, outline) <= OUTLINE_TOLERANCE
     opened = shapely.buffer(shapely.buffer(simple, -(dist + s / 2), join_style="mitre", mitre_limit=3), s / 2,
                             join_style="mitre", mitre_limit=3)
     expected = shapely.union_all(shapely.boundary(opened))
@@ -150,9 +148,8 @@ def test_convex_walls_are_geos_offsets_vertex_for_vertex(reverse):
     chamfered = shapely.Polygon([(0, 0), (20, 0), (20, 9.3), (19.3, 10), (0, 10)])  # 1 mm edge, gone at 1.2 mm
     s, count = bead_spacing(W, H), 6
     for shape in (oval, chamfered):
-        outline = shape.reverse() if reverse else shape
-        walls = make_walls(outline, count, W, H, outer_first=True)
-        simple = simplify_polygons(outline, OUTLINE_TOLERANCE)
+        simple = simplify_outline(shape.reverse() if reverse else shape)
+        walls = make_walls(simple, count, W, H, outer_first=True)
         want = offset(simple, -(W / 2 + s * np.arange(count)))
         assert len(walls.paths) == count
         for path, loop in zip(walls.paths, want):

@@ -56,6 +56,7 @@ from fgslice.slicing.regions import polygonal, slice_layer
 from fgslice.toolpaths import strategy1, strategy2
 from fgslice.toolpaths.paths import Path, Role
 from fgslice.toolpaths.skirt import skirt_paths
+from fgslice.toolpaths.walls import simplify_outline
 
 
 Thumbnails = Sequence[tuple[bytes, int, int]]
@@ -115,11 +116,12 @@ class SliceResult:
 
 
 def _section_task(job: SliceJob, index: int) -> shapely.Geometry:
-    """Strategy 1, pass 1: the bed-frame outline of one layer."""
+    """Strategy 1, pass 1: the bed-frame outline of one layer, simplified once for the
+    walls and skins of this layer and its neighbours (:func:`simplify_outline`)."""
     _, z_top, height = job.layers[index]
     ox, oy, oz = job.placement.offset
     section = job.design.section(z_top - height / 2 - oz)
-    return polygonal(shapely.transform(section, lambda c: c + np.array([ox, oy])))
+    return polygonal(simplify_outline(polygonal(shapely.transform(section, lambda c: c + np.array([ox, oy])))))
 
 
 def _layer_task(job: SliceJob, index: int) -> LayerResult:

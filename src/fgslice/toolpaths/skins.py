@@ -5,7 +5,8 @@ Top skin of a layer = its outline minus the intersection of the outlines of the
 top of the part), that intersection is empty and the whole layer is top skin. Bottom
 skins likewise with the layers below (so the first layer is entirely solid). Only the
 inner area (inside the walls) is split, so the skins are computed within it directly:
-the neighbours, simplified like the walls' outline, are intersected with the inner area
+the neighbours (outlines simplified like the layer's own,
+:func:`~fgslice.toolpaths.walls.simplify_outline`) are intersected with the inner area
 (nothing to compute where they cover it, the usual case inside a part). Geometry is
 shapely in the bed frame, mm.
 """
@@ -21,8 +22,6 @@ import shapely
 from fgslice.settings import Settings
 from fgslice.toolpaths.infill import concentric, rectilinear_many
 from fgslice.toolpaths.paths import Path, Role
-from fgslice.toolpaths.simplify import simplify_polygons
-from fgslice.toolpaths.walls import OUTLINE_TOLERANCE
 
 
 def covered(region, neighbours: Sequence, count: int):
@@ -33,8 +32,7 @@ def covered(region, neighbours: Sequence, count: int):
     ``count = 0`` covers everything (``region`` itself is returned). Neighbours that
     cover ``region`` are recognised by a predicate, without any overlay, and ``region``
     itself is then returned too (as for an empty ``region``); otherwise the neighbours
-    are simplified to :data:`~fgslice.toolpaths.walls.OUTLINE_TOLERANCE` and
-    intersected with ``region``.
+    are intersected with ``region``.
     """
     if count == 0 or region.is_empty:
         return region
@@ -43,7 +41,6 @@ def covered(region, neighbours: Sequence, count: int):
     near = np.asarray(list(neighbours[:count]), dtype=object)
     if np.all(shapely.covers(near, region)):
         return region
-    near = simplify_polygons(near, OUTLINE_TOLERANCE)
     return shapely.intersection_all(np.r_[near, np.asarray([region], dtype=object)])
 
 

@@ -64,9 +64,10 @@ def layer_paths(
     """Toolpaths of one layer, cut into colors, and its short-piece record (or None).
 
     Args:
-        regions: the layer (only ``outline`` is used for geometry).
+        regions: the layer (only ``outline`` is used for geometry, simplified by
+            :func:`~fgslice.toolpaths.walls.simplify_outline`).
         below, above: outlines of the ``bottom_layers`` layers below and ``top_layers``
-            above, nearest first (fewer near the bottom/top of the part).
+            above, nearest first (fewer near the bottom/top of the part), simplified alike.
         field: object with ``fractions(xy (N,2), z) -> (N, k)`` in the bed frame.
         palette: object with ``color_of``, ``zipper_neighbor`` and ``size``.
         settings: bead width, layer height, walls, skins, infill, zipper, tolerance.

@@ -10,7 +10,9 @@ inside the outline; loop ``k`` sits ``w / 2 + k s`` inside.
 
 All geometry is shapely 2 in the bed frame, mm. Offsets use mitre joins with
 :data:`MITRE_LIMIT` and are vectorized over arrays of geometries and distances. Walls
-are offsets of the outline simplified to :data:`OUTLINE_TOLERANCE`.
+are offsets of the outline as given: strategy 1 simplifies each layer's outline once,
+when it is sliced, to :data:`OUTLINE_TOLERANCE` (:func:`simplify_outline`), and its
+walls and skins take it so.
 """
 
 from __future__ import annotations
@@ -30,6 +32,12 @@ OUTLINE_TOLERANCE = 0.005
 """How far (mm) the outline's boundary may move when simplified before its walls are
 offset: mesh sections carry many vertices a few microns apart, which make mitre offsets
 slow (3DBenchy layers: 1150 vertices on average, 180 at this tolerance; walls 20x faster)."""
+
+
+def simplify_outline(outline):
+    """``outline`` (polygonal, mm) simplified to :data:`OUTLINE_TOLERANCE`, as walls and
+    skins take it."""
+    return simplify_polygons(outline, OUTLINE_TOLERANCE)
 
 
 def bead_spacing(width: float, height: float) -> float:
@@ -342,8 +350,7 @@ class Walls:
             index of its island in ``outline`` (holes belong to their island).
         inner: area left for skins and infill (the inner edge of the innermost loop's
             nominal strip, i.e. ``s / 2`` inside its centerline), a MultiPolygon.
-        outline: the outline the loops were offset from (simplified to
-            :data:`OUTLINE_TOLERANCE`).
+        outline: the outline the loops were offset from.
         eroded: ``outline`` eroded by ``w / 2`` (where the outermost centerline may run;
             with ``uncovered_area`` it gives the area no bead fits in).
     """
@@ -357,8 +364,8 @@ class Walls:
 def make_walls(outline, count: int, width: float, height: float, *, outer_first: bool = False, color: int = 0) -> Walls:
     """Perimeters of ``outline``: ``count`` loops per island and per hole.
 
-    Loop ``k`` is the boundary of the outline (simplified to :data:`OUTLINE_TOLERANCE`)
-    eroded by ``w / 2 + k s`` (``s`` from :func:`bead_spacing`), opened by ``s / 2`` so that no loop is printed around a
+    Loop ``k`` is the boundary of the outline (already simplified,
+    :func:`simplify_outline`) eroded by ``w / 2 + k s`` (``s`` from :func:`bead_spacing`), opened by ``s / 2`` so that no loop is printed around a
     sliver narrower than the bead spacing (its two sides would overlap). The loop
     centers and the inner area (erosion by ``w / 2 + (count - 1) s + s / 2``) come from
     one vectorized offset. Where a loop's erosion and the next level (the inner area for
@@ -380,7 +387,6 @@ def make_walls(outline, count: int, width: float, height: float, *, outer_first:
         color: color given to every loop.
     """
     s = bead_spacing(width, height)
-    outline = simplify_polygons(outline, OUTLINE_TOLERANCE)
     if count == 0 or outline.is_empty:
         eroded = offset(outline, -width / 2)
         return Walls([], eroded, outline, eroded)
