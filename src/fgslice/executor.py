@@ -2,7 +2,8 @@
 
 Every executor yields results in input order, so output built from them is identical
 whatever the executor and the number of workers. Workers receive the shared job state
-once (fork inheritance locally, a scattered object on Dask), then only layer indices.
+once (fork inheritance locally, a scattered object on Dask), then only runs of
+consecutive layer indices (:func:`_runs`), one task per run.
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import gc
+import itertools
 import multiprocessing
 import os
 import signal
@@ -61,7 +63,7 @@ class Consumer:
         self._conn, child = context.Pipe()
         self._outcome: tuple[str, Any] | None = None
         self._process = context.Process(target=_consume, args=(fn, child, os.getpid(), args), daemon=True)
-        with _sigint_held(), _heap_frozen():
+        with _forking():
             self._process.start()
         child.close()
 
@@ -143,8 +145,14 @@ def _consume(fn: Callable[..., Any], conn: Any, parent: int, args: tuple) -> Non
     conn.close()
 
 
-def _call(fn: Callable[[Any, Any], Any], chunk: list) -> list:
-    return [fn(_STATE, item) for item in chunk]
+def _run(fn: Callable[[Any, Any], Any], state: Any, run: list) -> list:
+    """``fn(state, item)`` for each item of a run (on a Dask worker, or via :func:`_call`)."""
+    return [fn(state, item) for item in run]
+
+
+def _call(fn: Callable[[Any, Any], Any], run: list) -> list:
+    """A pool task: :func:`_run` with the state the worker was started with."""
+    return _run(fn, _STATE, run)
 
 
 #: A pool is handed the items in runs of consecutive ones, about this many runs per
@@ -203,6 +211,14 @@ def map_ordered(
 
 
 @contextlib.contextmanager
+def _forking() -> Iterator[None]:
+    """Around the calls that fork worker or consumer processes: Ctrl-C held back
+    (:func:`_sigint_held`) and the heap frozen (:func:`_heap_frozen`)."""
+    with _sigint_held(), _heap_frozen():
+        yield
+
+
+@contextlib.contextmanager
 def _heap_frozen() -> Iterator[None]:
     """Hide this process's objects from the garbage collector of the processes forked meanwhile.
 
@@ -240,25 +256,29 @@ def _sigint_held() -> Iterator[None]:
         signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
+def _in_order(submit: Callable[[list], Any], runs: list[list], window: int, pending: deque,
+              opening: contextlib.AbstractContextManager) -> Iterator[Any]:
+    """Each run's results in order: ``submit(run)`` gives a future of the run's list of
+    results; at most ``window`` items (in whole runs, two at least) are in flight. The
+    first submissions are made inside ``opening``; ``pending`` holds the futures in
+    flight, for the caller to cancel."""
+    window = max(2, window // len(runs[0]))
+    iterator = iter(runs)
+    with opening:
+        pending.extend(submit(run) for run in itertools.islice(iterator, window))
+    while pending:
+        results = pending.popleft().result()
+        pending.extend(submit(run) for run in itertools.islice(iterator, 1))
+        yield from results
+
+
 def _map_pool(fn, state, items, jobs, window) -> Iterator[Any]:
     context = multiprocessing.get_context("fork")
     pool = ProcessPoolExecutor(max_workers=jobs, mp_context=context, initializer=_init_worker, initargs=(state, os.getpid()))
-    runs = _runs(items, jobs, window)
-    window = max(2 * jobs, window // len(runs[0]))  # runs in flight: at most ``window`` items
     pending: deque = deque()
-    try:
-        iterator = iter(runs)
-        with _sigint_held(), _heap_frozen():  # the first submission forks the workers
-            for run in iterator:
-                pending.append(pool.submit(_call, fn, run))
-                if len(pending) >= window:
-                    break
-        while pending:
-            results = pending.popleft().result()
-            for run in iterator:
-                pending.append(pool.submit(_call, fn, run))
-                break
-            yield from results
+    try:  # the first submission forks the workers
+        yield from _in_order(lambda run: pool.submit(_call, fn, run), _runs(items, jobs, window), window, pending,
+                             _forking())
     except BrokenProcessPool:
         raise SliceError(
             "a worker process died while slicing (killed, or out of memory); no output was written",
@@ -282,19 +302,14 @@ def _map_dask(fn, state, items, scheduler, window) -> Iterator[Any]:
         client = Client(scheduler, timeout="10s", set_as_default=False)
     except (OSError, TimeoutError) as exc:
         raise SliceError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
+    pending: deque = deque()
     try:
         state_future = client.scatter(state, broadcast=True)
-        pending: deque = deque()
-        iterator = iter(items)
-        for item in iterator:
-            pending.append(client.submit(fn, state_future, item, pure=False))
-            if len(pending) >= window:
-                break
-        while pending:
-            result = pending.popleft().result()
-            for item in iterator:
-                pending.append(client.submit(fn, state_future, item, pure=False))
-                break
-            yield result
+        workers = max(1, sum(client.nthreads().values()))
+        runs = _runs(items, workers, window)
+        yield from _in_order(lambda run: client.submit(_run, fn, state_future, run, pure=False), runs, window, pending,
+                             contextlib.nullcontext())
     finally:
+        for future in pending:
+            future.cancel()
         client.close()
