@@ -67,7 +67,7 @@ def frozen_in_worker(state, item):
 
 
 def test_forked_processes_leave_the_parents_objects_out_of_their_collections():
-    marker = [object() for _ in range(1000)]  # objects the parent holds at the fork
+    marker = [[] for _ in range(1000)]  # containers (tracked by the collector) the parent holds at the fork
     with Consumer(frozen_objects) as consumer:
         assert consumer.result() >= len(marker)
     results = list(map_ordered(frozen_in_worker, None, range(4), jobs=2))

@@ -14,6 +14,7 @@ loading a profile take about 23 ms (a pydantic model of the same fields took 100
 
 from __future__ import annotations
 
+import functools
 import tomllib
 import types
 import typing
@@ -131,7 +132,7 @@ class Settings(_Fields, kw_only=True, frozen=True, forbid_unknown_fields=True):
     """
 
     def __post_init__(self) -> None:
-        msgspec.convert(msgspec.structs.asdict(self), _Fields)  # each field's type and range
+        msgspec.convert(self.as_dict(), _Fields)  # each field's type and range
         if self.bead_width < self.layer_height:
             raise ValueError(
                 f"bead_width ({self.bead_width} mm) must be at least layer_height ({self.layer_height} mm)"
@@ -230,11 +231,16 @@ def _flatten(values: dict[str, Any]) -> dict[str, Any]:
 SETTING_NAMES: tuple[str, ...] = _Fields.__struct_fields__
 
 
+@functools.cache
+def _declared() -> dict[str, Any]:
+    """Every setting's declared ``Annotated[type, Meta]``, by name (resolved once)."""
+    return typing.get_type_hints(_Fields, include_extras=True)
+
+
 def describe_settings() -> list[tuple[str, Any, str]]:
     """``(name, default, description)`` of every setting, in declaration order."""
-    hints = typing.get_type_hints(_Fields, include_extras=True)
     defaults = _Fields()
-    return [(name, getattr(defaults, name), hints[name].__metadata__[0].description) for name in SETTING_NAMES]
+    return [(name, getattr(defaults, name), _declared()[name].__metadata__[0].description) for name in SETTING_NAMES]
 
 
 _KINDS = {int: "a whole number", float: "a number", bool: "true or false", str: "text", type(None): "none"}
@@ -243,7 +249,7 @@ _KINDS = {int: "a whole number", float: "a number", bool: "true or false", str: 
 def _expected(key: str) -> str:
     """What setting ``key`` accepts, in words: its kind and range (``a whole number, at
     least 0, at most 100``; ``one of 1, 2``; ``a number or 'auto'``)."""
-    kind, meta = typing.get_args(typing.get_type_hints(_Fields, include_extras=True)[key])
+    kind, meta = typing.get_args(_declared()[key])
     options = typing.get_args(kind) if typing.get_origin(kind) in (typing.Union, types.UnionType) else (kind,)
     words = []
     for option in options:

@@ -526,5 +526,6 @@ def uncovered_area(regions, width: float, eroded=None) -> float:
     if eroded is None:
         regions = simplify_polygons(regions, OUTLINE_TOLERANCE)
     opened = opening(regions, width / 2) if eroded is None else offset(eroded, width / 2)
-    # never below 0: an exact numpy erosion dilated back by GEOS may gain ~1e-12 mm^2
+    # never below 0: an erosion dilated back with mitre joins can exceed the region
+    # (overshoot at corners, or ~1e-12 mm^2 of rounding after an exact numpy erosion)
     return max(0.0, float(np.sum(shapely.area(regions)) - np.sum(shapely.area(opened))))

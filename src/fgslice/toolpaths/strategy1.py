@@ -79,7 +79,7 @@ def layer_paths(
     cut = cut_by_color(raw, field, palette, regions.z_plane, regions.index, settings)
     out = LayerPaths(regions.index, regions.z, regions.height)
     out.paths = cut.paths
-    out.uncovered_mm2 = uncovered_area(walls.outline, w, eroded=walls.eroded)
+    out.uncovered_mm2 = uncovered_area(regions.outline, w, eroded=walls.eroded)
     return out, short_pieces(cut.bounded_lengths, palette.size, settings.min_segment_mm, regions.index)
 
 

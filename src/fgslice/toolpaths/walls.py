@@ -350,14 +350,12 @@ class Walls:
             index of its island in ``outline`` (holes belong to their island).
         inner: area left for skins and infill (the inner edge of the innermost loop's
             nominal strip, i.e. ``s / 2`` inside its centerline), a MultiPolygon.
-        outline: the outline the loops were offset from.
-        eroded: ``outline`` eroded by ``w / 2`` (where the outermost centerline may run;
+        eroded: the outline eroded by ``w / 2`` (where the outermost centerline may run;
             with ``uncovered_area`` it gives the area no bead fits in).
     """
 
     paths: list[Path]
     inner: shapely.Geometry
-    outline: shapely.Geometry
     eroded: shapely.Geometry
 
 
@@ -389,7 +387,7 @@ def make_walls(outline, count: int, width: float, height: float, *, outer_first:
     s = bead_spacing(width, height)
     if count == 0 or outline.is_empty:
         eroded = offset(outline, -width / 2)
-        return Walls([], eroded, outline, eroded)
+        return Walls([], eroded, eroded)
     dist = width / 2 + s * np.arange(count)
     levels = _erosions(outline, np.append(dist, dist[-1] + s / 2))
     centers, inner, eroded = levels[:count], levels[count], levels[0]
@@ -410,4 +408,4 @@ def make_walls(outline, count: int, width: float, height: float, *, outer_first:
     roles = np.where(loop == 0, Role.EXTERNAL_PERIMETER, Role.PERIMETER)
     paths = split_rings(coords, ring_idx, roles, color, width, height, island_of(outline, coords, ring_idx))
     order = np.argsort(loop if outer_first else -loop, kind="stable")
-    return Walls([paths[i] for i in order], inner, outline, eroded)
+    return Walls([paths[i] for i in order], inner, eroded)
