@@ -16,6 +16,7 @@ import click
 
 import fgslice
 from fgslice.errors import FgsliceError
+from fgslice.heap import retain_freed_memory
 
 
 def _fail(error: FgsliceError) -> None:
@@ -370,8 +371,10 @@ def run() -> None:
     and the design's objects, about 0.1 s on every command. It exits normally instead
     (running ``atexit`` handlers) when a profiler or tracer is active (``python -m
     cProfile``, coverage), so that it can save its data; an unexpected exception also
-    propagates as usual (traceback, normal exit).
+    propagates as usual (traceback, normal exit). The process keeps the memory it
+    frees for reuse (:func:`fgslice.heap.retain_freed_memory`), as its workers do.
     """
+    retain_freed_memory()
     if sys.getprofile() is not None or sys.gettrace() is not None:
         main()
         return

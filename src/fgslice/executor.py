@@ -24,6 +24,7 @@ from concurrent.futures.process import BrokenProcessPool
 from typing import Any
 
 from fgslice.errors import SliceError
+from fgslice.heap import retain_freed_memory
 
 _STATE: Any = None
 _PR_SET_PDEATHSIG = 1
@@ -35,7 +36,9 @@ def _init_worker(state: Any, parent: int) -> None:
     global _STATE
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _die_with_parent(parent)
+    retain_freed_memory()
     _STATE = state
+
 
 
 def _die_with_parent(parent: int) -> None:
@@ -129,6 +132,7 @@ def _consume(fn: Callable[..., Any], conn: Any, parent: int, args: tuple) -> Non
     """The consumer process: run ``fn`` over the messages, send back its outcome."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _die_with_parent(parent)
+    retain_freed_memory()
 
     def messages() -> Iterator[Any]:
         while (message := conn.recv()) != _END:
