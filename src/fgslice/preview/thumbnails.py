@@ -170,16 +170,28 @@ def _smooth(volume: np.ndarray) -> np.ndarray:
 def _trilinear(volume: np.ndarray, index: np.ndarray) -> np.ndarray:
     """Trilinear interpolation of ``volume`` at fractional grid indices ``index`` ``(3, n)``;
     indices outside the grid are clamped to its edge (what ``scipy.ndimage.map_coordinates``
-    does with ``order=1, mode="nearest"``, without importing scipy for every slice)."""
+    does with ``order=1, mode="nearest"``, without importing scipy for every slice).
+
+    The eight corners of each point's cell are read from the flattened volume at one
+    offset each from the cell's first corner (a 1-D ``take`` is several times faster
+    than indexing the 3-D array eight times).
+    """
+    volume = np.ascontiguousarray(volume)
     shape = np.array(volume.shape)
     at = np.clip(index.T, 0, shape - 1)
     base = np.minimum(at.astype(np.intp), shape - 2)
     fx, fy, fz = (at - base).T
-    i, j, k = base.T
-    c00 = volume[i, j, k] * (1 - fx) + volume[i + 1, j, k] * fx
-    c10 = volume[i, j + 1, k] * (1 - fx) + volume[i + 1, j + 1, k] * fx
-    c01 = volume[i, j, k + 1] * (1 - fx) + volume[i + 1, j, k + 1] * fx
-    c11 = volume[i, j + 1, k + 1] * (1 - fx) + volume[i + 1, j + 1, k + 1] * fx
+    sx, sy, sz = (stride // volume.itemsize for stride in volume.strides)
+    first = base @ np.array([sx, sy, sz])
+    flat = volume.ravel()
+
+    def corner(offset: int) -> np.ndarray:
+        return np.take(flat, first + offset)
+
+    c00 = corner(0) * (1 - fx) + corner(sx) * fx
+    c10 = corner(sy) * (1 - fx) + corner(sx + sy) * fx
+    c01 = corner(sz) * (1 - fx) + corner(sx + sz) * fx
+    c11 = corner(sy + sz) * (1 - fx) + corner(sx + sy + sz) * fx
     return (c00 * (1 - fy) + c10 * fy) * (1 - fz) + (c01 * (1 - fy) + c11 * fy) * fz
 
 
