@@ -253,6 +253,13 @@ def parallel_ceiling(repeat: int) -> tuple[float, float]:
     return sorted(solos)[(repeat - 1) // 2], sorted(pairs)[(repeat - 1) // 2]
 
 
+def machine_reference() -> float:
+    """Wall seconds of :data:`SPIN` alone, printed before and after the rows: this machine's
+    speed drifts by tens of percent from one hour to the next, and two runs' figures
+    compare fairly only at a similar reference."""
+    return measure([sys.executable, "-c", SPIN], ROOT).wall_s
+
+
 def _median_note(repeat: int) -> str:
     return f", median of {repeat} runs" if repeat > 1 else ""
 
@@ -346,7 +353,7 @@ def main(argv: list[str] | None = None) -> None:
     else:
         wanted = names
     print(f"{time.strftime('%Y-%m-%d %H:%M')}, load average {', '.join(f'{v:.2f}' for v in os.getloadavg())}, "
-          f"{os.cpu_count()} cores")
+          f"{os.cpu_count()} cores, machine reference {machine_reference():.2f} s (a fixed Python loop)")
     byte_compile()
     with tempfile.TemporaryDirectory() as tmp:
         workdir = args.keep or Path(tmp)
@@ -361,6 +368,7 @@ def main(argv: list[str] | None = None) -> None:
             print_speedup(workdir, args.repeat)
         if "compare" in wanted:
             print_comparison(workdir, args.jobs, args.repeat)
+    print(f"\nmachine reference at the end: {machine_reference():.2f} s")
 
 
 if __name__ == "__main__":
