@@ -1,4 +1,10 @@
-"""How fgslice's processes hand memory back to the system (glibc's allocator)."""
+"""How fgslice's processes hand memory back to the system (glibc's allocator).
+
+Set in fgslice's own processes only: the ``fgslice`` command (:func:`fgslice.cli.run`)
+and the pool workers and consumer processes it forks (:mod:`fgslice.executor`). A program
+that calls the library keeps its own allocator settings; its forked workers still get
+these.
+"""
 
 from __future__ import annotations
 
