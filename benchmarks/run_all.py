@@ -164,11 +164,6 @@ def median_run(runs: list[tuple[Run, dict]]) -> tuple[Run, dict]:
     return sorted(runs, key=lambda r: r[0].wall_s)[(len(runs) - 1) // 2]
 
 
-def measure_median(cmd: list[str], cwd: Path, repeat: int) -> Run:
-    """:func:`measure` ``repeat`` times; the run of median wall time."""
-    return median_run([(measure(cmd, cwd), {}) for _ in range(repeat)])[0]
-
-
 def run_fgslice(design: Path, args: tuple[str, ...], out: Path, jobs: int, repeat: int = 1) -> tuple[Run, dict]:
     """Slice one row ``repeat`` times; returns the measurements and the statistics JSON
     (empty on failure) of the run of median wall time."""
@@ -217,10 +212,12 @@ def print_profiles(rows: list[Row], workdir: Path, top: int) -> None:
 
 
 def print_speedup(workdir: Path, repeat: int) -> None:
-    """Vase with 1 and 2 worker processes."""
+    """Vase with 1 and 2 worker processes, taken in turns (``repeat`` rounds, medians)."""
     vase = ROWS[0]
-    one, _ = run_fgslice(vase.design, vase.args, workdir / "vase_j1.gcode", 1, repeat)
-    two, _ = run_fgslice(vase.design, vase.args, workdir / "vase_j2.gcode", 2, repeat)
+    rounds = [(run_fgslice(vase.design, vase.args, workdir / "vase_j1.gcode", 1),
+               run_fgslice(vase.design, vase.args, workdir / "vase_j2.gcode", 2)) for _ in range(repeat)]
+    one, _ = median_run([r[0] for r in rounds])
+    two, _ = median_run([r[1] for r in rounds])
     if one.returncode or two.returncode:
         print(f"\nspeed-up: vase failed ({one.stderr or two.stderr})")
         return
@@ -306,16 +303,23 @@ def comparison_commands(stl: Path, workdir: Path, jobs: int) -> dict[str, list[s
 
 
 def print_comparison(workdir: Path, jobs: int, repeat: int) -> None:
+    """Single-material Benchy with every installed slicer, taken in turns (one run of each
+    per round, ``repeat`` rounds), so that a change of the machine's speed during the
+    series weighs on every slicer alike; medians per slicer."""
     if not BENCHY_STL.exists():
         print(f"\ncomparison skipped: {BENCHY_STL} not found")
         return
-    print(f"\nsingle-material 3DBenchy (0.2 mm, 2 walls, 15 % infill){_median_note(repeat)}")
-    runs: dict[str, Run] = {}
+    print(f"\nsingle-material 3DBenchy (0.2 mm, 2 walls, 15 % infill){_median_note(repeat)}, slicers taken in turns")
+    commands = {}
     for name, cmd in comparison_commands(BENCHY_STL, workdir, jobs).items():
         if isinstance(cmd, str):
             print(f"  {name:13s} skipped: {cmd}")
-            continue
-        run = measure_median(cmd, workdir, repeat)
+        else:
+            commands[name] = cmd
+    rounds = [{name: measure(cmd, workdir) for name, cmd in commands.items()} for _ in range(repeat)]
+    runs: dict[str, Run] = {}
+    for name in commands:
+        run = median_run([(r[name], {}) for r in rounds])[0]
         if run.returncode != 0:
             print(f"  {name:13s} failed (exit {run.returncode}): {run.stderr.strip().splitlines()[-1:]}")
             continue
