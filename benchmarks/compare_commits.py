@@ -26,8 +26,6 @@ from pathlib import Path
 import run_all
 
 DEFAULT_ROWS = "vase,benchy,palette_s1_c12,palette_s1_c16,palette_s1_c16_z10,palette_s2_c12,palette_s2_c48,single_benchy"
-SINGLE_BENCHY_ARGS = ("--strategy", "1", "--colors", "1", "--layer-height", "0.2",
-                      "--set", "walls=2", "--set", "infill_density=15")
 
 
 def rows_by_name(workdir: Path) -> dict[str, tuple[Path, tuple[str, ...]]]:
@@ -35,7 +33,7 @@ def rows_by_name(workdir: Path) -> dict[str, tuple[Path, tuple[str, ...]]]:
     rows = {r.name: (r.design, r.args) for r in run_all.ROWS}
     design = workdir / "benchy_single.vcad"
     design.write_text(f"mesh({json.dumps(str(run_all.BENCHY_STL))});\n")
-    rows["single_benchy"] = (design, SINGLE_BENCHY_ARGS)
+    rows["single_benchy"] = (design, run_all.SINGLE_BENCHY_ARGS)
     return rows
 
 

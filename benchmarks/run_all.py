@@ -269,14 +269,25 @@ def cura_definition() -> Path | None:
     return next((Path(c) for c in candidates if c and Path(c).is_file()), None)
 
 
+SINGLE_BENCHY_ARGS = ("--strategy", "1", "--colors", "1", "--layer-height", "0.2",
+                      "--set", "walls=2", "--set", "infill_density=15", "--set", "thumbnails=")
+"""fgslice's arguments for the single-material Benchy: like the other slicers' commands,
+no thumbnails in the G-code (neither PrusaSlicer's nor CuraEngine's command line renders
+any)."""
+
+WITH_THUMBNAILS = ("--set", "thumbnails=16x16,220x124")
+"""The default profile's thumbnails, for the comparison row that shows what they cost."""
+
+
 def comparison_commands(stl: Path, workdir: Path, jobs: int) -> dict[str, list[str] | str]:
     """Single-material Benchy: 0.2 mm layers, 2 walls, 15 % infill, 3 top / 3 bottom layers,
-    one skirt loop, centred on a 220 x 220 mm bed. A string value says why a slicer is skipped."""
+    one skirt loop, centred on a 220 x 220 mm bed; fgslice also once with its default
+    thumbnails. A string value says why a slicer is skipped."""
     design = workdir / "benchy_single.vcad"
     design.write_text(f"mesh({json.dumps(str(stl))});\n")
     commands: dict[str, list[str] | str] = {
-        "fgslice": fgslice_cmd(design, ("--strategy", "1", "--colors", "1", "--layer-height", "0.2",
-                                        "--set", "walls=2", "--set", "infill_density=15"), workdir / "single_fgslice.gcode", jobs)
+        "fgslice": fgslice_cmd(design, SINGLE_BENCHY_ARGS, workdir / "single_fgslice.gcode", jobs),
+        "+ thumbnails": fgslice_cmd(design, SINGLE_BENCHY_ARGS + WITH_THUMBNAILS, workdir / "single_thumbs.gcode", jobs),
     }
     prusa = shutil.which("prusa-slicer")
     commands["prusa-slicer"] = [
@@ -324,7 +335,7 @@ def print_comparison(workdir: Path, jobs: int, repeat: int) -> None:
             print(f"  {name:13s} failed (exit {run.returncode}): {run.stderr.strip().splitlines()[-1:]}")
             continue
         runs[name] = run
-        ratio = "" if name == "fgslice" or "fgslice" not in runs else \
+        ratio = "" if name in ("fgslice", "+ thumbnails") or "fgslice" not in runs else \
             f"  fgslice/{name}: wall {runs['fgslice'].wall_s / run.wall_s:.2f}, cpu {runs['fgslice'].cpu_s / run.cpu_s:.2f}"
         print(f"  {name:13s} wall {run.wall_s:7.2f} s  cpu {run.cpu_s:7.2f} s  peak {run.peak_mb:6.0f} MB{ratio}", flush=True)
 
