@@ -22,6 +22,20 @@ def test_skirt_loops_at_distance():
         assert not shapely.Polygon(p.points).boundary.intersects(outline.buffer(4.0))
 
 
+def test_skirt_of_a_many_sided_outline_has_no_join_slivers_and_stays_within_resolution():
+    outline = shapely.Point(110, 110).buffer(40, quad_segs=64)  # 256 corners of 1.4 degrees
+    settings = Settings(skirt_loops=1, skirt_distance=3.0)
+    (loop,) = skirt_paths(outline, settings)
+    ring = np.vstack([loop.points, loop.points[:1]])
+    segments = np.hypot(*np.diff(ring, axis=0).T)
+    assert segments.min() > 0.2  # no round-join segment a few hundredths of a mm long
+    middles = shapely.points((ring[1:] + ring[:-1]) / 2)
+    gap = shapely.distance(middles, shapely.convex_hull(outline))
+    expected = 3.0 + settings.bead_width / 2
+    assert gap.min() >= expected - settings.gcode_resolution - 1e-9
+    assert gap.max() <= expected + 0.02
+
+
 def test_no_skirt():
     outline = shapely.box(0, 0, 10, 10)
     assert skirt_paths(outline, Settings(skirt_loops=0)) == []
