@@ -41,7 +41,7 @@ from fgslice.executor import Consumer, default_jobs, map_ordered
 from fgslice.guards import check_resources
 from fgslice.machine.dialects import make_dialect
 from fgslice.machine.gcode import GcodeWriter, build_number_tables, prepare_bodies
-from fgslice.machine.verify import follow_file, format_faults, verify_gcode, verify_gcode_blocks
+from fgslice.machine.verify import FOLLOW_BLOCK_BYTES, follow_file, format_faults, verify_gcode, verify_gcode_blocks
 from fgslice.output import atomic_output
 from fgslice.planning.lookahead import apply_lookahead, apply_time_lead
 from fgslice.planning.order import order_layer
@@ -298,11 +298,15 @@ def slice_to_gcode(
             handle, settings, palette, dialect, comments=header, thumbnails=thumbnails, now=_build_time()
         )
         writer.write_header()
+        told = 0  # the file size the verifier was last told
         for plan in itertools.chain(first, stream):
             writer.write_layer(plan)
             if follower:
                 handle.flush()
-                follower.send(os.fstat(handle.fileno()).st_size)
+                size = os.fstat(handle.fileno()).st_size
+                if size - told >= FOLLOW_BLOCK_BYTES:  # it reads no smaller block: no need to wake it
+                    follower.send(size)
+                    told = size
         stats = writer.finish()
         handle.flush()
         if verify:
