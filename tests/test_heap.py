@@ -1,11 +1,9 @@
 """heap.retain_freed_memory: fgslice's processes reuse the memory they free instead of
 faulting it in again, allocation after allocation."""
 
-import resource
 import subprocess
 import sys
 
-import numpy as np
 import pytest
 
 from fgslice.executor import Consumer, map_ordered

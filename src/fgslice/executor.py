@@ -40,7 +40,6 @@ def _init_worker(state: Any, parent: int) -> None:
     _STATE = state
 
 
-
 def _die_with_parent(parent: int) -> None:
     """Ask Linux to SIGKILL this process when its parent (pid ``parent``) exits
     (``PR_SET_PDEATHSIG``); exit now if it already has."""
