@@ -238,3 +238,34 @@ def test_strut_sections_match_the_capsule():
 def test_empty_sections_outside_the_bounds():
     assert api.design(api.sphere(1)).section(1.5).is_empty
     assert api.design(api.intersection(api.cube(1), api.translate((5, 0, 0), api.cube(1)))).section(0).is_empty
+
+
+def test_sections_of_many_heights_equal_one_section_each_and_mesh_planes_are_cut_together(tmp_path, monkeypatch):
+    """``sections`` gives, height by height, exactly what ``section`` gives (booleans,
+    transforms, a sampled tilted shape, heights outside the bounds and out of order), and
+    a mesh inside the tree is cut at all its heights in one batch."""
+    import trimesh
+
+    from fgslice.design.mesh import MeshGeometry
+
+    torus = trimesh.creation.torus(major_radius=8, minor_radius=3, major_sections=48, minor_sections=24)
+    torus.export(tmp_path / "torus.stl")
+    tree = api.fgrade(
+        ["x / 20 + 0.5", "0.5 - x / 20"], ["blue", "yellow"],
+        api.difference(
+            api.union(api.translate((1, 2, 0), api.mesh(tmp_path / "torus.stl")), api.scale((2, 1, 1), api.cube(6))),
+            api.rotate((20, 0, 0), api.cylinder(1.5, 30)),
+            api.intersection(api.cube(4), api.sphere(2.5)),
+        ),
+    )
+    design = api.design(tree)
+    zs = [2.9, -1.0, 0.0, 0.5, 7.0, -2.95, 1.7, 3.5]
+    one_each = [design.section(z) for z in zs]
+    batches = []
+    original = MeshGeometry._section_batch
+    monkeypatch.setattr(MeshGeometry, "_section_batch", lambda self, planes: batches.append(len(planes)) or original(self, planes))
+    together = design.sections(zs)
+    assert batches == [6]  # z = 3.5 and 7 lie above the torus: the other six in one batch
+    assert [g.wkb for g in together] == [g.wkb for g in one_each]
+    assert together[4].is_empty and not together[0].is_empty
+    assert all(isinstance(g, shapely.MultiPolygon) and g.is_valid for g in together)

@@ -99,7 +99,7 @@ def test_purge_tower_bound_is_the_largest_color_count_of_any_layer(tmp_path, col
     settings = load_settings(None, {"strategy": "1", "colors": str(colors)})
     job = SliceJob(design, settings, Palette(2, colors), place_design(design, settings), layer_heights(design, settings),
                    np.zeros(2))
-    job.outlines = [_section_task(job, i) for i in range(len(job.layers))]
+    job.outlines = _section_task(job, range(len(job.layers)))
     each = [_colors_in_outline(job, i) for i in range(len(job.layers))]
     assert len(set(each)) > 1 or colors == 3
     assert _max_colors_per_layer(job, 1, None) == max(each)

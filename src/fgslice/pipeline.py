@@ -52,7 +52,7 @@ from fgslice.slicing.field import BedField
 from fgslice.slicing.layers import LayerRegions, Placement
 from fgslice.slicing.palette import Palette
 from fgslice.slicing.plan_layers import layer_heights, place_design
-from fgslice.slicing.regions import polygonal, slice_layer
+from fgslice.slicing.regions import polygonal_each, slice_layer
 from fgslice.toolpaths import strategy1, strategy2
 from fgslice.toolpaths.paths import Path, Role
 from fgslice.toolpaths.skirt import skirt_paths
@@ -115,13 +115,19 @@ class SliceResult:
     stats: dict
 
 
-def _section_task(job: SliceJob, index: int) -> shapely.Geometry:
-    """Strategy 1, pass 1: the bed-frame outline of one layer, simplified once for the
-    walls and skins of this layer and its neighbours (:func:`simplify_outline`)."""
-    _, z_top, height = job.layers[index]
+SECTION_BATCH = 8
+"""Strategy 1 sections this many consecutive layers per task (:meth:`Design.sections`): a
+mesh sections them in one vectorized pass. 3DBenchy, 240 layers, one process: 413 ms
+of outlines one layer at a time, 238 ms in batches of 8 (236 ms in batches of 16)."""
+
+
+def _section_task(job: SliceJob, indices: Sequence[int]) -> list[shapely.Geometry]:
+    """Strategy 1, pass 1: the bed-frame outlines of some layers, each simplified once for
+    the walls and skins of its layer and its neighbours (:func:`simplify_outline`)."""
     ox, oy, oz = job.placement.offset
-    section = job.design.section(z_top - height / 2 - oz)
-    return polygonal(simplify_outline(polygonal(shapely.transform(section, lambda c: c + np.array([ox, oy])))))
+    sections = job.design.sections([job.layers[i][1] - job.layers[i][2] / 2 - oz for i in indices])
+    shifted = shapely.transform(np.array(sections, dtype=object), lambda c: c + np.array([ox, oy]))
+    return list(polygonal_each(simplify_outline(polygonal_each(shifted))))
 
 
 def _layer_task(job: SliceJob, index: int) -> LayerResult:
@@ -251,7 +257,9 @@ def slice_to_gcode(
             thumbnails = _start_thumbnails(thumbnails, cleanup) if jobs > 1 or scheduler else tuple(thumbnails())
         tower = None
         if settings.strategy == 1:
-            job.outlines = list(map_ordered(_section_task, job, range(len(layers)), jobs=jobs, scheduler=scheduler))
+            batches = [range(i, min(i + SECTION_BATCH, len(layers))) for i in range(0, len(layers), SECTION_BATCH)]
+            job.outlines = list(itertools.chain.from_iterable(
+                map_ordered(_section_task, job, batches, jobs=jobs, scheduler=scheduler)))
             if settings.purge and palette.size > 1:
                 changes = _max_colors_per_layer(job, jobs, scheduler)
                 tower = PurgeTower.plan(_part_footprint(job), settings, max(changes, 1), len(layers))

@@ -8,6 +8,7 @@ downstream — slicing, analysis, previews — uses only the members declared he
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -53,3 +54,8 @@ class Design(ABC):
     @abstractmethod
     def section(self, z: float) -> shapely.MultiPolygon:
         """The outline of the part in the plane at height ``z`` (design frame), valid."""
+
+    def sections(self, zs: Sequence[float]) -> list[shapely.MultiPolygon]:
+        """The outlines at every height of ``zs`` (design frame), in order: :meth:`section`
+        at each; designs that compute many planes faster together override it."""
+        return [self.section(float(z)) for z in zs]

@@ -76,9 +76,8 @@ def _inside_by_sections(design: Design, x: np.ndarray, y: np.ndarray, z: np.ndar
     """Whether each grid point lies in the design's section at its height (boundary included)."""
     inside = np.zeros(len(x), dtype=bool)
     heights, level = np.unique(z, return_inverse=True)
-    for i, height in enumerate(heights):
+    for i, section in enumerate(design.sections(heights)):
         at = np.flatnonzero(level == i)
-        section = design.section(float(height))
         if not section.is_empty:
             inside[at] = shapely.intersects_xy(section, x[at], y[at])
     return inside

@@ -9,7 +9,9 @@ Every node works in its own frame (millimetres). A node provides
   cube, rectprism, cylinder and strut; exact for meshes (delegated); booleans combine the
   sections of their children; translations, scalings and rotations that keep Z vertical
   transform the child's section. Anything else (``function``, tilting rotations) is
-  sampled with :func:`fgslice.design.sampled.section_from_sdf` at ``spacing``;
+  sampled with :func:`fgslice.design.sampled.section_from_sdf` at ``spacing``.
+  ``sections(zs, spacing)`` gives the same outlines at several heights, computed
+  together where that is faster (a mesh sections many planes in one vectorized pass);
 * ``raw(x, y, z, ctx, columns)``: raw (unclamped) material fractions, ``(N, k)`` for 1-D
   arrays, where ``ctx`` is the enclosing fgrade's fractions at those points (or None).
 
@@ -208,10 +210,22 @@ class Node:
 
     def section(self, z: float, spacing: float) -> shapely.Geometry:
         """Outline at height ``z`` (see the module docstring for exactness)."""
+        return self.sections([z], spacing)[0]
+
+    def sections(self, zs: Sequence[float], spacing: float) -> list[shapely.Geometry]:
+        """Outlines at every height of ``zs``, in order: empty outside the node's bounds."""
         lo, hi = self.bounds()
-        if not (lo[2] <= z <= hi[2]) or np.any(lo > hi):
-            return _EMPTY
-        return self._section(z, spacing)
+        out = [_EMPTY] * len(zs)
+        if np.any(lo > hi):
+            return out
+        inside = [i for i, z in enumerate(zs) if lo[2] <= z <= hi[2]]
+        for i, outline in zip(inside, self._sections([float(zs[i]) for i in inside], spacing)):
+            out[i] = outline
+        return out
+
+    def _sections(self, zs: list[float], spacing: float) -> list[shapely.Geometry]:
+        """Outlines at heights within the bounds; one :meth:`_section` each unless overridden."""
+        return [self._section(z, spacing) for z in zs]
 
     def _section(self, z: float, spacing: float) -> shapely.Geometry:
         return sampled_section(self, z, spacing)
@@ -432,8 +446,8 @@ class MeshShape(Primitive):
         lo, hi = self.geometry.bounds()
         return np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
 
-    def _section(self, z, spacing):
-        return self.geometry.section(z)
+    def _sections(self, zs, spacing):
+        return self.geometry.sections(zs)
 
 
 def _union_raw(children: Sequence[Node], x, y, z, ctx, columns: Columns) -> np.ndarray:
@@ -465,8 +479,8 @@ class Union(Node):
         boxes = [b for b in boxes if not np.any(b[0] > b[1])] or boxes
         return np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)
 
-    def _section(self, z, spacing):
-        return shapely.union_all([c.section(z, spacing) for c in self.children])
+    def _sections(self, zs, spacing):
+        return [shapely.union_all(parts) for parts in zip(*(c.sections(zs, spacing) for c in self.children))]
 
     def raw(self, x, y, z, ctx, columns):
         return _union_raw(self.children, x, y, z, ctx, columns)
@@ -492,8 +506,8 @@ class Intersection(Node):
         boxes = [c.bounds() for c in self.children]
         return np.max([b[0] for b in boxes], axis=0), np.min([b[1] for b in boxes], axis=0)
 
-    def _section(self, z, spacing):
-        return functools.reduce(shapely.intersection, (c.section(z, spacing) for c in self.children))
+    def _sections(self, zs, spacing):
+        return [functools.reduce(shapely.intersection, parts) for parts in zip(*(c.sections(zs, spacing) for c in self.children))]
 
 
 class Difference(Node):
@@ -511,11 +525,15 @@ class Difference(Node):
     def _bounds(self):
         return self.children[0].bounds()
 
-    def _section(self, z, spacing):
-        first = self.children[0].section(z, spacing)
-        if len(self.children) == 1 or first.is_empty:
-            return first
-        return shapely.difference(first, shapely.union_all([c.section(z, spacing) for c in self.children[1:]]))
+    def _sections(self, zs, spacing):
+        firsts = self.children[0].sections(zs, spacing)
+        cut = [i for i, first in enumerate(firsts) if not first.is_empty]  # the others only where there is a first
+        if len(self.children) == 1 or not cut:
+            return firsts
+        others = zip(*(c.sections([zs[i] for i in cut], spacing) for c in self.children[1:]))
+        for i, parts in zip(cut, others):
+            firsts[i] = shapely.difference(firsts[i], shapely.union_all(parts))
+        return firsts
 
 
 class Affine(Node):
@@ -559,16 +577,13 @@ class Affine(Node):
         mapped = corners @ self.matrix.T + self.offset
         return mapped.min(axis=0), mapped.max(axis=0)
 
-    def _section(self, z, spacing):
+    def _sections(self, zs, spacing):
         m = np.where(np.abs(self.matrix) < 1e-12, 0.0, self.matrix)
         if m[0, 2] != 0 or m[1, 2] != 0 or m[2, 0] != 0 or m[2, 1] != 0:
-            return sampled_section(self, z, spacing)
-        child = self._body.section((z - self.offset[2]) / m[2, 2], spacing / float(self._stretch.max()))
-        if child.is_empty:
-            return child
-        return shapely.affinity.affine_transform(
-            child, [m[0, 0], m[0, 1], m[1, 0], m[1, 1], self.offset[0], self.offset[1]]
-        )
+            return [sampled_section(self, z, spacing) for z in zs]
+        children = self._body.sections([(z - self.offset[2]) / m[2, 2] for z in zs], spacing / float(self._stretch.max()))
+        plane_map = [m[0, 0], m[0, 1], m[1, 0], m[1, 1], self.offset[0], self.offset[1]]
+        return [child if child.is_empty else shapely.affinity.affine_transform(child, plane_map) for child in children]
 
     def raw(self, x, y, z, ctx, columns):
         if self._body.coordinate_free:
@@ -658,8 +673,8 @@ class Fgrade(Node):
     def _bounds(self):
         return self._body.bounds()
 
-    def _section(self, z, spacing):
-        return self._body.section(z, spacing)
+    def _sections(self, zs, spacing):
+        return self._body.sections(zs, spacing)
 
     @functools.cached_property
     def _group(self):
@@ -886,4 +901,8 @@ class NodeDesign(Design):
 
     def section(self, z: float, spacing: float | None = None) -> shapely.MultiPolygon:
         """Outline at height ``z``; ``spacing`` (mm) for sampled parts, default ``section_spacing``."""
-        return as_multipolygon(self.root.section(float(z), spacing or self.section_spacing))
+        return self.sections([z], spacing)[0]
+
+    def sections(self, zs: Sequence[float], spacing: float | None = None) -> list[shapely.MultiPolygon]:
+        """Outlines at every height of ``zs``, like :meth:`section` at each, computed together."""
+        return [as_multipolygon(g) for g in self.root.sections([float(z) for z in zs], spacing or self.section_spacing)]

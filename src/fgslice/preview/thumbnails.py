@@ -105,7 +105,7 @@ class _Grid:
     def from_sections(cls, design: Design, lo: np.ndarray, hi: np.ndarray, points: int) -> _Grid:
         axes, step = cls._axes(lo, hi, points)
         xx, yy = np.meshgrid(axes[0], axes[1], indexing="ij")
-        inside = np.stack([shapely.contains_xy(design.section(float(z)), xx, yy) for z in axes[2]], axis=2)
+        inside = np.stack([shapely.contains_xy(section, xx, yy) for section in design.sections(axes[2])], axis=2)
         sdf = _chamfer_distance(inside, step, CHAMFER_REACH) - _chamfer_distance(~inside, step, CHAMFER_REACH)
         return cls(lo, step, _smooth(sdf))
 

@@ -62,7 +62,7 @@ def _group_polygons(parts: np.ndarray, index: np.ndarray, n: int) -> np.ndarray:
     return out
 
 
-def _as_multipolygon(geometries: np.ndarray) -> np.ndarray:
+def polygonal_each(geometries: np.ndarray) -> np.ndarray:
     """Keep the polygonal parts of each geometry, as one MultiPolygon per input (empty if none)."""
     parts, index = shapely.get_parts(geometries, return_index=True)
     return _group_polygons(parts, index, len(geometries))
@@ -86,7 +86,7 @@ def _clipped(faces: np.ndarray, outline: shapely.Geometry) -> np.ndarray:
 
 def polygonal(geometry: shapely.Geometry) -> shapely.MultiPolygon:
     """The polygonal part of ``geometry`` as one MultiPolygon (lines and points dropped)."""
-    return _as_multipolygon(np.array([geometry], dtype=object))[0]
+    return polygonal_each(np.array([geometry], dtype=object))[0]
 
 
 def _grid(bounds: tuple[float, float, float, float], spacing: float) -> tuple[np.ndarray, np.ndarray]:
@@ -242,7 +242,7 @@ def _fill_remainder(
     faces = faces.copy()
     for color in np.unique(colors):
         faces[color] = shapely.union_all(np.append(rest[colors == color], faces[color]))
-    return _as_multipolygon(faces)
+    return polygonal_each(faces)
 
 
 def face_spacing(settings: Settings) -> float:
