@@ -179,3 +179,16 @@ def test_uncovered_area_is_what_no_bead_fits_in():
     (lp, _), _ = run(Settings(strategy=1, walls=2, infill_density=20), outline=outline)
     assert lp.uncovered_mm2 == pytest.approx(uncovered_area(outline, W), rel=1e-9)
     assert lp.uncovered_mm2 == pytest.approx(10 * 0.3, rel=0.05)
+
+
+def test_one_color_palette_keeps_every_path_whole_in_color_0():
+    """With one color nothing is cut: each path comes back whole in color 0 (the very
+    same path when it has color 0 already), in order."""
+    from fgslice.toolpaths.paths import Path
+
+    square = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]])
+    paths = [Path(square, Role.PERIMETER, 0, 0.4, 0.2, closed=True), Path(square[:2] + 1, Role.SOLID_INFILL, 3, 0.4, 0.2)]
+    cut = strategy1.cut_by_color(paths, None, Palette(1, 1), 0.1, 0, Settings())
+    assert cut.paths[0] is paths[0]
+    assert cut.paths[1].color == 0 and paths[1].color == 3
+    assert np.array_equal(cut.paths[1].points, paths[1].points) and cut.paths[1].role is Role.SOLID_INFILL

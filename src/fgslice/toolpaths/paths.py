@@ -56,8 +56,8 @@ class Path:
     group: int = -1
 
     def with_color(self, color: int) -> "Path":
-        """The same path in another color."""
-        return replace(self, color=color)
+        """The same path in ``color`` (this path itself when it has that color already)."""
+        return self if color == self.color else replace(self, color=color)
 
     @property
     def vertices(self) -> np.ndarray:
