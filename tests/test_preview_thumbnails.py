@@ -91,13 +91,17 @@ def test_chamfer_distance_bounds_the_euclidean_distance(step):
 
     step = np.asarray(step)
     mask = np.random.default_rng(5).random((40, 30, 25)) < 0.003
-    reach = 10
-    chamfer = _chamfer_distance(mask, step, reach)
+    passes, reach = 4, 15
+    chamfer = _chamfer_distance(mask, step, passes)
     exact = distance_transform_edt(~mask, sampling=step)
     assert np.all(chamfer[mask] == 0)
     # never below the true distance (capped at the reach), never more than 25 % above it
     assert np.all(chamfer >= np.minimum(exact, reach * step.min()) - 1e-9)
     assert np.all(chamfer <= 1.25 * exact + 1e-9)
+    # a cell `reach` cells from a lone mask cell along an axis gets its exact distance
+    lone = np.zeros((2 * reach + 1, 3, 3), dtype=bool)
+    lone[0, 1, 1] = True
+    assert _chamfer_distance(lone, step, passes)[reach, 1, 1] == pytest.approx(reach * step[0])
 
 
 def test_thumbnail_from_sections_matches_the_exact_signed_distance_render():
