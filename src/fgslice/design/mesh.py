@@ -87,14 +87,12 @@ def load_mesh(path: str | Path, *, gap_tolerance: float = 0.25) -> MeshGeometry:
         )
     if not path.is_file():
         raise MeshError("mesh file not found", file=path, hint="check the path (relative paths start at the design file's folder)")
-    if file_type == "stl":
-        corners = _read_stl(path)
-        vertices, faces = corners.reshape(-1, 3), np.arange(corners.size // 3).reshape(-1, 3)
-        element = "triangle"
+    if file_type == "stl":  # the corners of each triangle in turn: faces are (0, 1, 2), (3, 4, 5), ...
+        vertices, faces, element = _read_stl(path).reshape(-1, 3), None, "triangle"
     else:
         vertices, faces = _read_with_trimesh(path, file_type)
         element = "vertex"
-    if len(faces) == 0:
+    if len(vertices) == 0 or (faces is not None and len(faces) == 0):
         raise MeshError(
             "the mesh holds no triangles",
             file=path,
@@ -108,8 +106,10 @@ def load_mesh(path: str | Path, *, gap_tolerance: float = 0.25) -> MeshGeometry:
             file=path,
             hint="repair the mesh (e.g. with your CAD program's mesh repair) and export it again",
         )
-    vertices, inverse = _merge_vertices(vertices)
-    return MeshGeometry(vertices, inverse[faces], path=path, gap_tolerance=gap_tolerance)
+    vertices, inverse = _merge_vertices(vertices)  # the corners' array is freed here
+    faces = inverse.reshape(-1, 3) if faces is None else inverse[faces]
+    del inverse
+    return MeshGeometry(vertices, faces, path=path, gap_tolerance=gap_tolerance)
 
 
 def _read_with_trimesh(path: Path, file_type: str) -> tuple[np.ndarray, np.ndarray]:
@@ -230,7 +230,9 @@ def _merge_vertices(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     sorted once; a hash collision between different rows (checked against the kept
     rows) falls back to ``np.unique(axis=0)``.
     """
-    q = np.round(vertices * 10.0**_MERGE_DIGITS).astype(np.int64)
+    scaled = vertices * 10.0**_MERGE_DIGITS
+    q = np.rint(scaled, out=scaled).astype(np.int64)  # rounded in place: one temporary fewer
+    del scaled
     with np.errstate(over="ignore"):
         key = q.view(np.uint64) @ _HASH
     order, new, inverse = _sorted_groups(key)
