@@ -23,6 +23,9 @@ from fgslice.settings import Settings
 from fgslice.toolpaths.infill import concentric, rectilinear_many
 from fgslice.toolpaths.paths import Path, Role
 
+_EMPTY = shapely.Polygon()
+"""The empty area (geometries are immutable; shapely parses WKT to make a new one)."""
+
 
 def covered(region, neighbours: Sequence, count: int):
     """Part of ``region`` covered by all of the ``count`` nearest ``neighbours``.
@@ -38,7 +41,7 @@ def covered(region, neighbours: Sequence, count: int):
     if count == 0 or region.is_empty:
         return region
     if len(neighbours) < count:
-        return shapely.Polygon()
+        return _EMPTY
     near = np.asarray(list(neighbours[:count]), dtype=object)
     cover = shapely.covers(near, region)
     if np.all(cover):
@@ -49,7 +52,7 @@ def covered(region, neighbours: Sequence, count: int):
 def _minus(region, part):
     """``region`` minus ``part`` where ``part`` is :func:`covered`'s result for ``region``."""
     if part is region:
-        return shapely.Polygon()
+        return _EMPTY
     if part.is_empty:
         return region
     return shapely.difference(region, part)
@@ -80,11 +83,10 @@ def split_inner(inner, outline, below: Sequence, above: Sequence, settings: Sett
     ``outline``, so this equals the outline's exposed parts intersected with ``inner``).
     A density of 100 % makes everything solid (role SOLID_INFILL where not top skin).
     """
-    empty = shapely.Polygon()
     under_above = covered(inner, above, settings.top_layers)
     top = _minus(inner, under_above)
     if settings.infill_density >= 100.0:
-        return InnerAreas(top, under_above, empty)
+        return InnerAreas(top, under_above, _EMPTY)
     sparse = covered(under_above, below, settings.bottom_layers)
     return InnerAreas(top, _minus(under_above, sparse), sparse)
 
