@@ -144,6 +144,17 @@ def test_slice_embeds_thumbnails_and_writes_a_report(design, tmp_path):
     assert "<html" in html.lower() and "data:image/png;base64," in html
 
 
+def test_slice_without_thumbnails_starts_no_thumbnail_process(design, tmp_path, monkeypatch):
+    import fgslice.pipeline
+
+    started = []
+    monkeypatch.setattr(fgslice.pipeline, "_start_thumbnails", lambda *args: started.append(args))
+    out = tmp_path / "box.gcode"
+    result = run("slice", design, "-o", out, "--colors", "3", "--jobs", "2", "--set", "thumbnails=")
+    assert result.exit_code == 0, result.output
+    assert started == [] and "; thumbnail begin" not in out.read_text()
+
+
 def test_preview_draws_a_layer_a_sheet_and_refuses_a_missing_layer(design, tmp_path):
     out = tmp_path / "box.gcode"
     assert run("slice", design, "-o", out, "--colors", "3", "--jobs", "1").exit_code == 0
