@@ -39,11 +39,12 @@ from operator import attrgetter
 import numpy as np
 
 from fgslice.errors import SettingsError
-from fgslice.planning.plan import PACKED, STATE, LayerPlan, PackedSteps, pack_arrays, role_codes
+from fgslice.planning.plan import PACKED, ROLES, STATE, LayerPlan, PackedSteps, pack_arrays, role_codes
 from fgslice.toolpaths.paths import LayerPaths, Path, Role
 
 WALL_ROLES = frozenset({Role.EXTERNAL_PERIMETER, Role.PERIMETER})
-_WALL_ROLE_CODES = role_codes(WALL_ROLES)
+_IS_WALL_CODE = np.isin(role_codes(ROLES), role_codes(WALL_ROLES))
+"""Whether each role code is a wall's (indexed by code: a lookup instead of ``np.isin`` per layer)."""
 FEATURE_ORDERS = ("walls_first", "infill_first")
 SKIRT_COLOR = -1
 
@@ -104,7 +105,7 @@ def order_layer(
     n = len(items)
     sequence = np.asarray(color_sequence, dtype=np.int64).reshape(-1)
     roles, colors, widths, heights, unit = _path_columns(items)
-    walls = np.isin(roles, _WALL_ROLE_CODES)
+    walls = _IS_WALL_CODE[roles]
     rank = np.full(max(int(colors.max()), int(sequence.max(initial=0))) + 2, -1, dtype=np.int64)
     rank[sequence[::-1]] = np.arange(sequence.size)[::-1]  # first occurrence wins
     stray = (colors != SKIRT_COLOR) & ((colors < 0) | (rank[np.maximum(colors, 0)] < 0))
