@@ -140,9 +140,9 @@ def _chamfer_distance(mask: np.ndarray, step: np.ndarray, passes: int) -> np.nda
     its Euclidean distance (and, on cubic cells, at most 13 % more, as with one-cell
     steps); a cell not reached lies more than ``reach`` cells away and gets that lower
     bound, ``reach * min(step)``. A lower bound where it matters is what sphere tracing
-    needs: it never steps past a surface. Four passes cost a third of the twelve
-    one-cell passes that reached 12 cells before (3DBenchy's thumbnails: 0.24 -> 0.14 s,
-    the same PNG bytes).
+    needs: it never steps past a surface. Four passes (reach 15) cost a third of twelve
+    one-cell passes (reach 12): 3DBenchy's thumbnails take 0.14 s instead of 0.24 s, with
+    the same PNG bytes.
     """
     distance = np.where(mask, 0.0, np.inf)
     shape = mask.shape
