@@ -527,9 +527,9 @@ class Difference(Node):
 
     def _sections(self, zs, spacing):
         firsts = self.children[0].sections(zs, spacing)
-        cut = [i for i, first in enumerate(firsts) if not first.is_empty]  # the others only where there is a first
-        if len(self.children) == 1 or not cut:
+        if len(self.children) == 1:
             return firsts
+        cut = [i for i, first in enumerate(firsts) if not first.is_empty]  # the others only where there is a first
         others = zip(*(c.sections([zs[i] for i in cut], spacing) for c in self.children[1:]))
         for i, parts in zip(cut, others):
             firsts[i] = shapely.difference(firsts[i], shapely.union_all(parts))

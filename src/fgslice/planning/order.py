@@ -43,7 +43,7 @@ from fgslice.planning.plan import PACKED, ROLES, STATE, LayerPlan, PackedSteps, 
 from fgslice.toolpaths.paths import LayerPaths, Path, Role
 
 WALL_ROLES = frozenset({Role.EXTERNAL_PERIMETER, Role.PERIMETER})
-_IS_WALL_CODE = np.isin(role_codes(ROLES), role_codes(WALL_ROLES))
+_IS_WALL_CODE = np.array([role in WALL_ROLES for role in ROLES])
 """Whether each role code is a wall's (indexed by code: a lookup instead of ``np.isin`` per layer)."""
 FEATURE_ORDERS = ("walls_first", "infill_first")
 SKIRT_COLOR = -1
