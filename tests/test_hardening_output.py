@@ -258,3 +258,60 @@ def test_a_completed_slice_replaces_the_old_output(tmp_path):
     target.write_text(OLD)
     slice_to_gcode(box_design(), load_settings(), target, jobs=1)
     assert read_gcode(target).e.sum() > 0 and leftovers(tmp_path) == []
+
+
+@pytest.fixture
+def ctrl_c_raises():
+    """SIGINT raises KeyboardInterrupt in this process for the test (a test runner's
+    worker may ignore it)."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+def _ctrl_c_after(make):
+    """``make`` followed at once by a real Ctrl-C to this process."""
+    def made_then_interrupted(*args, **kwargs):
+        result = make(*args, **kwargs)
+        os.kill(os.getpid(), signal.SIGINT)
+        return result
+    return made_then_interrupted
+
+
+def test_ctrl_c_right_after_the_temporary_file_is_made_leaves_nothing(tmp_path, monkeypatch, ctrl_c_raises):
+    import tempfile
+
+    target = tmp_path / "out.gcode"
+    target.write_text(OLD)
+    monkeypatch.setattr(tempfile, "mkstemp", _ctrl_c_after(tempfile.mkstemp))
+    with pytest.raises(KeyboardInterrupt):
+        with atomic_output(target) as handle:
+            handle.write("new")
+    assert target.read_text() == OLD and leftovers(tmp_path) == []
+
+
+def test_ctrl_c_as_a_slice_opens_its_output_leaves_nothing(tmp_path, monkeypatch, ctrl_c_raises):
+    """The slice enters its output in an ExitStack: a Ctrl-C the moment the output is
+    opened still finds the temporary file's cleanup registered."""
+    target = tmp_path / "box.gcode"
+    target.write_text(OLD)
+    monkeypatch.setattr(fgslice.pipeline, "atomic_output", lambda *args: _InterruptedOnEntry(fgslice.output.atomic_output(*args)))
+    with pytest.raises(KeyboardInterrupt) as raised:
+        slice_to_gcode(box_design(), load_settings(None, {"colors": "2"}), target, jobs=1)
+    assert target.read_text() == OLD and leftovers(tmp_path) == []  # checked while the traceback holds every frame
+    del raised
+
+
+class _InterruptedOnEntry:
+    """A context manager whose entry is followed at once by a real Ctrl-C to this process."""
+
+    def __init__(self, manager):
+        self.manager = manager
+
+    def __enter__(self):
+        entered = self.manager.__enter__()
+        os.kill(os.getpid(), signal.SIGINT)
+        return entered
+
+    def __exit__(self, *exc):
+        return self.manager.__exit__(*exc)

@@ -16,7 +16,6 @@ import multiprocessing
 import os
 import signal
 import sys
-import threading
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor
@@ -25,6 +24,7 @@ from typing import Any
 
 from fgslice.errors import SliceError
 from fgslice.heap import retain_freed_memory
+from fgslice.interrupts import sigint_held
 
 _STATE: Any = None
 _PR_SET_PDEATHSIG = 1
@@ -216,8 +216,11 @@ def map_ordered(
 @contextlib.contextmanager
 def _forking() -> Iterator[None]:
     """Around the calls that fork worker or consumer processes: Ctrl-C held back
-    (:func:`_sigint_held`) and the heap frozen (:func:`_heap_frozen`)."""
-    with _sigint_held(), _heap_frozen():
+    (:func:`~fgslice.interrupts.sigint_held`: one handled during a fork would be swallowed
+    by the interpreter's fork callbacks; workers forked meanwhile inherit the blocked
+    signal and then ignore it, :func:`_init_worker`) and the heap frozen
+    (:func:`_heap_frozen`)."""
+    with sigint_held(), _heap_frozen():
         yield
 
 
@@ -238,25 +241,6 @@ def _heap_frozen() -> Iterator[None]:
         yield
     finally:
         gc.unfreeze()
-
-
-@contextlib.contextmanager
-def _sigint_held() -> Iterator[None]:
-    """Hold back Ctrl-C (SIGINT) while the first submissions fork the workers.
-
-    A SIGINT handled during a fork runs inside the interpreter's fork callbacks, which
-    swallow the KeyboardInterrupt, so the run would go on; held back, it is delivered
-    right after, as a KeyboardInterrupt the caller sees. Workers forked meanwhile inherit
-    the blocked signal and then ignore it (:func:`_init_worker`).
-    """
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def _in_order(submit: Callable[[list], Any], runs: list[list], window: int, pending: deque,

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import IO
 
 from fgslice.errors import OutputError
+from fgslice.interrupts import sigint_held
 
 
 def check_writable(path: str | Path, *, inputs: tuple[str | Path, ...] = ()) -> Path:
@@ -56,14 +57,19 @@ def atomic_output(path: str | Path, mode: str = "w") -> Iterator[IO]:
     wrote (to verify it) before the rename.
 
     Any exception (including KeyboardInterrupt) removes the temporary file and re-raises;
-    ``OSError`` while writing (a full disk, say) becomes :class:`OutputError`.
+    ``OSError`` while writing (a full disk, say) becomes :class:`OutputError`. A Ctrl-C
+    is held back while the temporary file is made, so none leaves it behind unnamed. A
+    caller entering this in a :class:`contextlib.ExitStack` holds it back over
+    ``enter_context`` too (:func:`~fgslice.interrupts.sigint_held`), or a Ctrl-C between
+    the file's creation and the registration of its cleanup would leave it.
     """
     target = Path(path)
     tmp: Path | None = None
     text = "b" not in mode
     try:
-        fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=target.resolve().parent)
-        tmp = Path(tmp_name)
+        with sigint_held():  # no Ctrl-C between making the file and naming it for removal
+            fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=target.resolve().parent)
+            tmp = Path(tmp_name)
         os.close(fd)
         with open(tmp, mode, encoding="utf-8" if text else None, newline="\n" if text else None) as handle:
             yield handle

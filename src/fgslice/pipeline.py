@@ -39,6 +39,7 @@ from fgslice.design.base import Design
 from fgslice.errors import SliceError
 from fgslice.executor import Consumer, default_jobs, map_ordered
 from fgslice.guards import check_resources
+from fgslice.interrupts import sigint_held
 from fgslice.machine.dialects import make_dialect
 from fgslice.machine.gcode import GcodeWriter, build_number_tables, prepare_bodies
 from fgslice.machine.verify import FOLLOW_BLOCK_BYTES, follow_file, format_faults, verify_gcode, verify_gcode_blocks
@@ -295,7 +296,8 @@ def slice_to_gcode(
         follower = Consumer(_verify_written, settings) if verify and (jobs > 1 or scheduler) else None
         if follower:
             cleanup.enter_context(follower)
-        handle = cleanup.enter_context(atomic_output(output))
+        with sigint_held():  # a Ctrl-C lands after the temporary file's cleanup is registered
+            handle = cleanup.enter_context(atomic_output(output))
         cleanup.callback(stream.close)  # on an error, stop the workers here and now
         if follower:
             follower.send(handle.name)

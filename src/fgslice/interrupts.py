@@ -1,0 +1,42 @@
+"""Holding back Ctrl-C (SIGINT) over steps that must not be cut in two.
+
+Python runs a signal handler between any two bytecodes, so a Ctrl-C can land between
+creating something and recording that it must be cleaned up (a temporary file made but
+not yet named for removal, a context entered but its exit not yet registered), or inside
+the interpreter's fork callbacks, which swallow the KeyboardInterrupt. Held back over
+such a step, the Ctrl-C is delivered right after it, as a KeyboardInterrupt that the
+caller's cleanup sees.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import threading
+from collections.abc import Iterator
+
+
+@contextlib.contextmanager
+def sigint_held() -> Iterator[None]:
+    """Hold back SIGINT over the block and deliver it right after, if one came.
+
+    The Python-level handler is swapped for one that only notes the signal, rather than
+    the main thread's signal mask changed: the kernel hands a process's SIGINT to any
+    thread that does not block it (numpy's BLAS threads, say), and Python then runs its
+    handler in the main thread all the same. A noted SIGINT is raised again once the
+    previous handler is back, so it acts as it would have (KeyboardInterrupt by default).
+    Only the main thread can set handlers: in any other thread the block runs as it is.
+    Processes forked inside the block inherit the noting handler until they set their
+    own (fgslice's workers ignore SIGINT).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    noted: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: noted.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        if noted:
+            signal.raise_signal(signal.SIGINT)
