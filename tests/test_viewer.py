@@ -94,7 +94,8 @@ def test_binds_loopback_only_and_reports_the_url(server):
 def test_refuses_other_host_names(server):
     connection = http.client.HTTPConnection("127.0.0.1", server.port, timeout=10)
     connection.request("GET", "/data/meta.json", headers={"Host": f"attacker.example:{server.port}"})
-    assert connection.getresponse().status == 421
+    with connection.getresponse() as response:
+        assert response.status == 421
     connection.close()
 
 
@@ -114,6 +115,7 @@ def test_serves_the_page_and_offline_assets(server):
     with pytest.raises(urllib.error.HTTPError) as missing:
         _get(server.url + "assets/../viewer.py")
     assert missing.value.code == 404
+    missing.value.close()  # the error holds the response's socket
 
 
 def test_metadata_matches_the_program(server, gcode_file):
