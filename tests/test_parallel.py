@@ -21,11 +21,18 @@ fgrade(["x/24 + 0.5", "0.5 - x/24"], ["blue", "yellow"]) {
 """
 
 
+QUIET_SCHEDULER = {"dashboard_address": "127.0.0.1:0"}
+"""The scheduler's HTTP server (its health routes; the dashboard is off) on a free loopback
+port, not on 8787 of every interface, which two clusters of parallel test processes would
+both ask for."""
+
+
 @pytest.fixture(scope="module")
 def cluster():
     """A local Dask cluster of two worker processes; yields the scheduler address."""
     with distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=40
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=40,
+        scheduler_kwargs=QUIET_SCHEDULER,
     ) as local:
         yield local.scheduler_address
 

@@ -69,7 +69,8 @@ def test_dask_sweep_matches_local(tmp_path, disc, monkeypatch):
     monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000000")
     local = run_sweep(disc, tmp_path / "local", colors=[3], strategy=[1, 2], overrides=BASE, jobs=1)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None, silence_logs=40) as cluster:
+                                  dashboard_address=None, silence_logs=40,
+                                  scheduler_kwargs={"dashboard_address": "127.0.0.1:0"}) as cluster:  # free port
         remote = run_sweep(disc, tmp_path / "dask", colors=[3], strategy=[1, 2], overrides=BASE,
                            scheduler=cluster.scheduler_address)
     assert [r["name"] for r in remote] == [r["name"] for r in local] == ["disc_c3_z0_s1", "disc_c3_z0_s2"]
