@@ -217,9 +217,9 @@ def map_ordered(
 def _forking() -> Iterator[None]:
     """Around the calls that fork worker or consumer processes: Ctrl-C held back
     (:func:`~fgslice.interrupts.sigint_held`: one handled during a fork would be swallowed
-    by the interpreter's fork callbacks; workers forked meanwhile inherit the blocked
-    signal and then ignore it, :func:`_init_worker`) and the heap frozen
-    (:func:`_heap_frozen`)."""
+    by the interpreter's fork callbacks; processes forked meanwhile inherit the handler
+    that only notes it, until they ignore SIGINT, :func:`_init_worker`) and the heap
+    frozen (:func:`_heap_frozen`)."""
     with sigint_held(), _heap_frozen():
         yield
 
