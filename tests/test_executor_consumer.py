@@ -3,10 +3,12 @@
 import gc
 import os
 
+import numpy as np
 import pytest
 
+from fgslice import executor
 from fgslice.errors import SliceError
-from fgslice.executor import Consumer, map_ordered
+from fgslice.executor import Consumer, _ResultSlots, map_ordered
 
 
 def total_and_pid(messages, scale):
@@ -96,3 +98,37 @@ def test_items_go_to_the_pool_in_consecutive_runs_enough_to_balance_the_workers(
         assert len(runs) >= min(count, jobs * TASKS_PER_WORKER)
         assert 2 * jobs * len(runs[0]) <= 64 or len(runs[0]) == 1  # two runs per worker in the window
         assert len({len(run) for run in runs[:-1]}) <= 1 and len(runs[-1]) <= len(runs[0])
+
+
+def test_a_result_slot_holds_what_fits_and_hands_back_what_does_not():
+    slots = _ResultSlots(2, 4096)
+    small = [np.arange(10.0).reshape(5, 2).T, "G1 X1 Y2\n" * 100]  # a Fortran-ordered array, a text
+    slot = slots.free.pop()
+    stored = slots.put(slot, small)
+    assert stored[0] == slot and stored[2] is None and 0 < stored[1] <= 4096
+    back = slots.take(stored)
+    assert slot in slots.free
+    big = [np.arange(1000.0)]
+    stored = slots.put(slots.free.pop(), big)
+    assert stored[1:] == (0, big)  # too large for the slot: handed back as it is
+    assert slots.take(stored) is big and sorted(slots.free) == [0, 1]
+    slots.close()  # what was taken out no longer refers to the shared memory
+    assert np.array_equal(back[0], small[0]) and back[1] == small[1] and back[0].flags.writeable
+
+
+def filled(state, item):
+    return np.full(item, float(item))
+
+
+def test_pool_results_are_whole_whether_they_fit_a_result_slot_or_not(monkeypatch):
+    monkeypatch.setattr(executor, "RESULT_SLOT_BYTES", 64 << 10)
+    sizes = [10, 20_000, 5, 30_000, 1, 7_000] * 20  # 160 and 240 KB arrays overflow a 64 KiB slot
+    results = list(map_ordered(filled, None, sizes, jobs=2))
+    assert [len(r) for r in results] == sizes
+    assert all((r == n).all() for r, n in zip(results, sizes))  # read after the pool and its slots are gone
+
+
+def test_a_pool_map_left_early_closes_its_shared_memory_cleanly():
+    results = map_ordered(square_and_pid, 0, range(1000), jobs=2)
+    assert [next(results)[0] for _ in range(3)] == [0, 1, 4]
+    results.close()  # the workers stop and the slots close (no view of them is left open)
