@@ -121,8 +121,8 @@ def filled(state, item):
 
 
 def test_pool_results_are_whole_whether_they_fit_a_result_slot_or_not(monkeypatch):
-    monkeypatch.setattr(executor, "RESULT_SLOT_BYTES", 64 << 10)
-    sizes = [10, 20_000, 5, 30_000, 1, 7_000] * 20  # 160 and 240 KB arrays overflow a 64 KiB slot
+    monkeypatch.setattr(executor, "RESULT_SLOTS_BYTES", 64 * (64 << 10))  # 64 runs in flight: 64 KiB slots
+    sizes = [10, 20_000, 5, 30_000, 1, 7_000] * 20  # 160 and 240 KB arrays overflow a slot
     results = list(map_ordered(filled, None, sizes, jobs=2))
     assert [len(r) for r in results] == sizes
     assert all((r == n).all() for r, n in zip(results, sizes))  # read after the pool and its slots are gone

@@ -165,9 +165,11 @@ def _call(fn: Callable[[Any, Any], Any], run: list, slot: int) -> tuple:
     return _SLOTS.put(slot, _run(fn, _STATE, run))
 
 
-RESULT_SLOT_BYTES = 8 << 20
-"""Size of one result slot, bytes: a run whose pickled results are larger comes back
-through the pool's pipe. The vase's runs of 7 layers pickle to about 1.7 MB."""
+RESULT_SLOTS_BYTES = 64 << 20
+"""Shared memory for the result slots of one map, bytes, split evenly between its runs in
+flight: a run whose pickled results are larger than its slot comes back through the
+pool's pipe. Runs pickle to at most 0.9 MB on the Benchy (21 slots of 3 MiB), 1.7 MB on
+the vase (9 slots of 7 MiB) and 2.2 MB on the palette with 48 colors (10 slots of 6 MiB)."""
 
 
 class _SlotFull(Exception):
@@ -202,7 +204,8 @@ class _ResultSlots:
     straight into a slot of an anonymous shared mapping that the workers inherit at the
     fork, and sends only the slot's number and the pickle's size; the parent unpickles
     from the slot and frees it. There is one slot per run in flight (the parent hands a
-    free one with each task); results larger than a slot go through the pipe instead.
+    free one with each task); results larger than a slot go through the pipe instead
+    (:data:`RESULT_SLOTS_BYTES`).
     The vase's 500 layers come back in 72 runs, 116 MB in all: moving them costs two
     workers and their parent 0.26-0.34 s of CPU through the pipe and 0.13-0.16 s through
     slots (``benchmarks/bench_executor.py``). A slot's pages are faulted in once and then
@@ -350,7 +353,8 @@ def _in_order(submit: Callable[[list], Any], receive: Callable[[Any], list], run
 
 def _map_pool(fn, state, items, jobs, window) -> Iterator[Any]:
     runs = _runs(items, jobs, window)
-    slots = _ResultSlots(_runs_in_flight(runs, window), RESULT_SLOT_BYTES)
+    in_flight = _runs_in_flight(runs, window)
+    slots = _ResultSlots(in_flight, RESULT_SLOTS_BYTES // in_flight)
     context = multiprocessing.get_context("fork")
     pool = ProcessPoolExecutor(max_workers=jobs, mp_context=context, initializer=_init_worker,
                                initargs=(state, os.getpid(), slots))
