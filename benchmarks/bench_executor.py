@@ -27,6 +27,8 @@ from collections import deque
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parents[1]
 TASKS = 72
 RUN = 7
@@ -47,7 +49,7 @@ def vase_run() -> list:
                                     "infill_density": 0, "top_layers": 0, "bottom_layers": 0})
     layers = layer_heights(design, settings)
     job = pipeline.SliceJob(design, settings, Palette(2, 16), place_design(design, settings), layers,
-                            pipeline.np.array([settings.bed_x / 2, settings.bed_y / 2]))
+                            np.array([settings.bed_x / 2, settings.bed_y / 2]))
     job.outlines = [o for batch in range(0, len(layers), 8)
                     for o in pipeline._section_task(job, range(batch, min(batch + 8, len(layers))))]
     return [pipeline._layer_task(job, i) for i in range(240, 240 + RUN)]
