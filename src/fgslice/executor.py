@@ -35,7 +35,7 @@ _SLOTS: "_ResultSlots | None" = None
 _PR_SET_PDEATHSIG = 1
 
 
-def _init_worker(state: Any, parent: int, slots: "_ResultSlots") -> None:
+def _init_worker(state: Any, parent: int, slots: "_ResultSlots | None") -> None:
     """Keep the job state and the result slots; leave Ctrl-C to the parent, which stops
     the pool and cleans up, and end with the parent however it ends (no orphaned worker
     keeps computing)."""
@@ -159,17 +159,22 @@ def _run(fn: Callable[[Any, Any], Any], state: Any, run: list) -> list:
     return [fn(state, item) for item in run]
 
 
-def _call(fn: Callable[[Any, Any], Any], run: list, slot: int) -> tuple:
-    """A pool task: :func:`_run` with the state the worker was started with, its results
-    left in result slot ``slot`` (:meth:`_ResultSlots.put`)."""
-    return _SLOTS.put(slot, _run(fn, _STATE, run))
+def _call(fn: Callable[[Any, Any], Any], run: list) -> list:
+    """A pool task: :func:`_run` with the state the worker was started with."""
+    return _run(fn, _STATE, run)
+
+
+def _call_into_slot(fn: Callable[[Any, Any], Any], run: list, slot: int) -> tuple:
+    """A pool task: :func:`_call`, its results left in result slot ``slot``
+    (:meth:`_ResultSlots.put`)."""
+    return _SLOTS.put(slot, _call(fn, run))
 
 
 RESULT_SLOTS_BYTES = 64 << 20
 """Shared memory for the result slots of one map, bytes, split evenly between its runs in
 flight: a run whose pickled results are larger than its slot comes back through the
-pool's pipe. Runs pickle to at most 0.9 MB on the Benchy (21 slots of 3 MiB), 1.7 MB on
-the vase (9 slots of 7 MiB) and 2.2 MB on the palette with 48 colors (10 slots of 6 MiB)."""
+pool's pipe. Runs pickle to at most 0.9 MB on the Benchy (21 slots of 3 MiB) and 1.7 MB on
+the vase (9 slots of 7 MiB)."""
 
 
 class _SlotFull(Exception):
@@ -208,8 +213,10 @@ class _ResultSlots:
     (:data:`RESULT_SLOTS_BYTES`).
     The vase's 500 layers come back in 72 runs, 116 MB in all: moving them costs two
     workers and their parent 0.26-0.34 s of CPU through the pipe and 0.13-0.16 s through
-    slots (``benchmarks/bench_executor.py``). A slot's pages are faulted in once and then
-    reused; a map of few runs (10 palette layers) gets only fresh pages, and breaks even.
+    slots (``benchmarks/bench_executor.py``). A slot's pages are faulted in once, by the
+    worker and by the parent, and then reused; a map whose runs are all in flight at once
+    would only write fresh pages, so it does without slots (the palette's 10 layers, 12
+    alternating pairs of each row: 1-4 % slower with them).
 
     Attributes:
         size: bytes per slot.
@@ -354,14 +361,18 @@ def _in_order(submit: Callable[[list], Any], receive: Callable[[Any], list], run
 def _map_pool(fn, state, items, jobs, window) -> Iterator[Any]:
     runs = _runs(items, jobs, window)
     in_flight = _runs_in_flight(runs, window)
-    slots = _ResultSlots(in_flight, RESULT_SLOTS_BYTES // in_flight)
+    slots = _ResultSlots(in_flight, RESULT_SLOTS_BYTES // in_flight) if len(runs) > in_flight else None
     context = multiprocessing.get_context("fork")
     pool = ProcessPoolExecutor(max_workers=jobs, mp_context=context, initializer=_init_worker,
                                initargs=(state, os.getpid(), slots))
+    if slots:
+        submit, receive = (lambda run: pool.submit(_call_into_slot, fn, run, slots.free.pop()),
+                           lambda future: slots.take(future.result()))
+    else:
+        submit, receive = (lambda run: pool.submit(_call, fn, run)), (lambda future: future.result())
     pending: deque = deque()
     try:  # the first submission forks the workers
-        yield from _in_order(lambda run: pool.submit(_call, fn, run, slots.free.pop()),
-                             lambda future: slots.take(future.result()), runs, window, pending, _forking())
+        yield from _in_order(submit, receive, runs, window, pending, _forking())
     except BrokenProcessPool:
         raise SliceError(
             "a worker process died while slicing (killed, or out of memory); no output was written",
@@ -371,7 +382,8 @@ def _map_pool(fn, state, items, jobs, window) -> Iterator[Any]:
         for future in pending:
             future.cancel()
         pool.shutdown(wait=True, cancel_futures=True)
-        slots.close()
+        if slots:
+            slots.close()
 
 
 def _map_dask(fn, state, items, scheduler, window) -> Iterator[Any]:
