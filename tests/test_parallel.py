@@ -11,7 +11,7 @@ from fgslice.design.language import parse_design
 from fgslice.pipeline import slice_to_gcode
 from fgslice.settings import load_settings
 
-distributed = pytest.importorskip("distributed")
+pytest.importorskip("distributed")
 pytestmark = pytest.mark.slow  # a two-process Dask cluster takes seconds to start
 
 GRADED_DISC = """
@@ -19,22 +19,6 @@ fgrade(["x/24 + 0.5", "0.5 - x/24"], ["blue", "yellow"]) {
     translate(0, 0, 1) { cylinder(12, 2); }
 }
 """
-
-
-QUIET_SCHEDULER = {"dashboard_address": "127.0.0.1:0"}
-"""The scheduler's HTTP server (its health routes; the dashboard is off) on a free loopback
-port, not on 8787 of every interface, which two clusters of parallel test processes would
-both ask for."""
-
-
-@pytest.fixture(scope="module")
-def cluster():
-    """A local Dask cluster of two worker processes; yields the scheduler address."""
-    with distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=40,
-        scheduler_kwargs=QUIET_SCHEDULER,
-    ) as local:
-        yield local.scheduler_address
 
 
 def _callable_design():
@@ -66,20 +50,20 @@ def _slices(tmp_path, design, settings, address):
     ],
     ids=["strategy1", "strategy2"],
 )
-def test_text_design_is_identical_on_every_executor(tmp_path, monkeypatch, cluster, overrides):
+def test_text_design_is_identical_on_every_executor(tmp_path, monkeypatch, dask_scheduler, overrides):
     monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000000")
     design = parse_design(GRADED_DISC)
-    serial, pool, dask = _slices(tmp_path, design, load_settings(None, overrides), cluster)
+    serial, pool, dask = _slices(tmp_path, design, load_settings(None, overrides), dask_scheduler)
     assert serial.count(b";LAYER_CHANGE") == 5
     assert serial.count(b";STATE:") >= 4
     assert pool == serial
     assert dask == serial
 
 
-def test_callable_design_is_identical_on_dask(tmp_path, monkeypatch, cluster):
+def test_callable_design_is_identical_on_dask(tmp_path, monkeypatch, dask_scheduler):
     monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000000")
     settings = load_settings(None, {"strategy": "2", "colors": "4", "layer_height": "0.4", "thumbnails": ""})
-    serial, pool, dask = _slices(tmp_path, _callable_design(), settings, cluster)
+    serial, pool, dask = _slices(tmp_path, _callable_design(), settings, dask_scheduler)
     assert serial.count(b";LAYER_CHANGE") == 20
     assert pool == serial
     assert dask == serial

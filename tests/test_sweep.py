@@ -64,15 +64,11 @@ def test_local_sweep_writes_every_combination(tmp_path, disc, monkeypatch):
 
 
 @pytest.mark.slow
-def test_dask_sweep_matches_local(tmp_path, disc, monkeypatch):
-    distributed = pytest.importorskip("distributed")
-    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000000")
+def test_dask_sweep_matches_local(tmp_path, disc, monkeypatch, start_dask_cluster):
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000000")  # before the cluster: its workers write the time stamps
     local = run_sweep(disc, tmp_path / "local", colors=[3], strategy=[1, 2], overrides=BASE, jobs=1)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None, silence_logs=40,
-                                  scheduler_kwargs={"dashboard_address": "127.0.0.1:0"}) as cluster:  # free port
-        remote = run_sweep(disc, tmp_path / "dask", colors=[3], strategy=[1, 2], overrides=BASE,
-                           scheduler=cluster.scheduler_address)
+    with start_dask_cluster() as address:
+        remote = run_sweep(disc, tmp_path / "dask", colors=[3], strategy=[1, 2], overrides=BASE, scheduler=address)
     assert [r["name"] for r in remote] == [r["name"] for r in local] == ["disc_c3_z0_s1", "disc_c3_z0_s2"]
     for row in local:
         a = (tmp_path / "local" / f"{row['name']}.gcode").read_bytes()
