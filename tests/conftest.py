@@ -1,7 +1,6 @@
 """Shared fixtures: paths to the project's examples and to the shared test meshes, a local
 Dask cluster; a comparison of layer plans step by step."""
 
-import contextlib
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -24,32 +23,18 @@ def benchy_path() -> Path:
     return path
 
 
-@contextlib.contextmanager
-def _local_dask_cluster() -> Iterator[str]:
-    """A local Dask cluster of two worker processes, as its scheduler's address (skips when
-    dask.distributed is not installed). The scheduler's HTTP server (health routes; the
-    dashboard is off) listens on a free loopback port, not on 8787 of every interface,
-    which the clusters of parallel test processes would all ask for."""
+@pytest.fixture(scope="session")
+def dask_scheduler() -> Iterator[str]:
+    """The address of a local Dask cluster of two worker processes, shared by the tests of
+    one test process (skips when dask.distributed is not installed). The scheduler's HTTP
+    server (health routes; the dashboard is off) listens on a free loopback port, not on
+    8787 of every interface, which the clusters of parallel test processes would all ask for."""
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(
         n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=40,
         scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
     ) as local:
         yield local.scheduler_address
-
-
-@pytest.fixture(scope="session")
-def dask_scheduler() -> Iterator[str]:
-    """The address of a local Dask cluster shared by the tests of one test process."""
-    with _local_dask_cluster() as address:
-        yield address
-
-
-@pytest.fixture
-def start_dask_cluster():
-    """Starts a cluster of its own (``with start_dask_cluster() as address``), for a test
-    whose workers must see the environment it set up first."""
-    return _local_dask_cluster
 
 
 def same_steps(a, b):

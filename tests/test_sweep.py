@@ -64,15 +64,16 @@ def test_local_sweep_writes_every_combination(tmp_path, disc, monkeypatch):
 
 
 @pytest.mark.slow
-def test_dask_sweep_matches_local(tmp_path, disc, monkeypatch, start_dask_cluster):
-    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000000")  # before the cluster: its workers write the time stamps
+def test_dask_sweep_matches_local(tmp_path, disc, monkeypatch, dask_scheduler):
+    # set after the cluster started: its workers do not see it, the submitter's stamp is used
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1600000000")
     local = run_sweep(disc, tmp_path / "local", colors=[3], strategy=[1, 2], overrides=BASE, jobs=1)
-    with start_dask_cluster() as address:
-        remote = run_sweep(disc, tmp_path / "dask", colors=[3], strategy=[1, 2], overrides=BASE, scheduler=address)
+    remote = run_sweep(disc, tmp_path / "dask", colors=[3], strategy=[1, 2], overrides=BASE, scheduler=dask_scheduler)
     assert [r["name"] for r in remote] == [r["name"] for r in local] == ["disc_c3_z0_s1", "disc_c3_z0_s2"]
     for row in local:
         a = (tmp_path / "local" / f"{row['name']}.gcode").read_bytes()
         b = (tmp_path / "dask" / f"{row['name']}.gcode").read_bytes()
+        assert b.split(b"\n", 1)[0].endswith(b" on 2020-09-13 at 12:26:40 UTC")
         # only the sweep comment (the output folder's name) differs
         assert a.replace(b"sweep = local", b"sweep = dask") == b
 

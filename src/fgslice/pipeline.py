@@ -219,6 +219,7 @@ def slice_to_gcode(
     thumbnails: Thumbnails | Callable[[], Thumbnails] = (),
     progress: Callable[[int, int], None] | None = None,
     verify: bool = True,
+    stamp: datetime | None = None,
 ) -> SliceResult:
     """Slice ``design`` with ``settings`` and write printer-ready G-code to ``output``.
 
@@ -234,6 +235,7 @@ def slice_to_gcode(
             layers (serial work the other cores would wait for), else here, first.
         progress: called as ``progress(done_layers, total_layers)``.
         verify: check the written file against the machine's limits before keeping it.
+        stamp: the time stamp of the G-code's first line (UTC); None: :func:`build_time`.
 
     Returns:
         The output path and the statistics (see :class:`SliceResult`).
@@ -305,7 +307,7 @@ def slice_to_gcode(
         if callable(thumbnails):
             thumbnails = thumbnails()
         writer = GcodeWriter(
-            handle, settings, palette, dialect, comments=header, thumbnails=thumbnails, now=_build_time()
+            handle, settings, palette, dialect, comments=header, thumbnails=thumbnails, now=stamp or build_time()
         )
         writer.write_header()
         told = 0  # the file size the verifier was last told
@@ -375,9 +377,10 @@ def _verify_written(messages: Iterator, settings: Settings) -> list:
     return verify_gcode_blocks(follow_file(name, messages), settings, name=name)
 
 
-def _build_time() -> datetime | None:
-    """The time stamp for the G-code's first line: ``SOURCE_DATE_EPOCH`` when set (for
-    reproducible output), else None (the writer uses the current time)."""
+def build_time() -> datetime | None:
+    """The time stamp for the G-code's first line: ``SOURCE_DATE_EPOCH`` of this process's
+    environment when set (for reproducible output), else None (the writer uses the
+    current time)."""
     epoch = os.environ.get("SOURCE_DATE_EPOCH", "").strip()
     return datetime.fromtimestamp(int(epoch), tz=timezone.utc) if epoch.isdecimal() else None
 

@@ -12,7 +12,8 @@ combinations are sliced once per palette size with zipper 0.
 Locally, combinations run one after another and each slices its layers in a process pool
 (``jobs``). With a Dask ``scheduler``, every combination is one task on the cluster
 (sliced there with one process); the workers write into ``out_dir``, which must be a
-folder they can reach (a shared file system for a remote cluster).
+folder they can reach (a shared file system for a remote cluster). The submitter's
+``SOURCE_DATE_EPOCH``, when set, stamps every combination's G-code, wherever it is sliced.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ import csv
 import json
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from datetime import datetime
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +31,7 @@ from fgslice.design.base import Design
 from fgslice.errors import SettingsError
 from fgslice.executor import map_ordered
 from fgslice.output import atomic_output, check_writable
-from fgslice.pipeline import slice_to_gcode
+from fgslice.pipeline import build_time, slice_to_gcode
 from fgslice.settings import Settings, load_settings
 
 SUMMARY_COLUMNS = (
@@ -49,12 +51,17 @@ class Combination:
 
 @dataclass(frozen=True)
 class _SweepJob:
-    """What every combination's task needs (shipped once to each Dask worker)."""
+    """What every combination's task needs (shipped once to each Dask worker).
+
+    ``stamp`` is the submitter's :func:`~fgslice.pipeline.build_time`: a cluster's workers
+    do not share the submitter's environment.
+    """
 
     design: Design
     out_dir: Path
     jobs: int | None
     comments: dict[str, str]
+    stamp: datetime | None
 
 
 def combinations(
@@ -97,7 +104,8 @@ def combinations(
 def _slice_combination(job: _SweepJob, combination: Combination) -> dict:
     """Slice one combination into ``out_dir``; returns its summary row."""
     gcode = job.out_dir / f"{combination.name}.gcode"
-    result = slice_to_gcode(job.design, combination.settings, gcode, jobs=job.jobs, comments=job.comments)
+    result = slice_to_gcode(job.design, combination.settings, gcode, jobs=job.jobs, comments=job.comments,
+                            stamp=job.stamp)
     with atomic_output(gcode.with_suffix(".json")) as handle:
         json.dump(result.stats, handle, indent=2, default=float)
         handle.write("\n")
@@ -167,6 +175,7 @@ def run_sweep(
         out_dir=out_dir.resolve(),
         jobs=1 if scheduler else jobs,
         comments={"design": str(design_path), "sweep": out_dir.name},
+        stamp=build_time(),
     )
     rows = []
     for row in map_ordered(_slice_combination, job, todo, jobs=1, scheduler=scheduler, window=len(todo)):
