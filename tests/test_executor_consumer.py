@@ -36,7 +36,9 @@ def test_consumer_error_reaches_the_caller_even_if_it_stops_reading():
         for k in range(20000):  # far more than a pipe buffers once the consumer stopped
             consumer.send(k)
         consumer.result()
-    assert not consumer._process.is_alive()
+    consumer._process.join(10)  # it exits by itself once its error is sent
+    assert consumer._process.exitcode == 0
+    consumer.close()
 
 
 def test_closing_a_consumer_ends_its_process():
@@ -89,7 +91,7 @@ def test_pool_results_come_in_order_however_the_items_are_grouped_into_tasks(cou
     assert os.getpid() not in {pid for _, pid in results}
 
 
-def test_items_go_to_the_pool_in_consecutive_runs_enough_to_balance_the_workers():
+def test_items_go_to_the_pool_in_consecutive_runs_enough_to_balance_the_workers_and_single_at_the_end():
     from fgslice.executor import TASKS_PER_WORKER, _runs
 
     for count, jobs in [(10, 2), (240, 2), (500, 2), (500, 8), (3, 4), (100_000, 2)]:
@@ -97,7 +99,9 @@ def test_items_go_to_the_pool_in_consecutive_runs_enough_to_balance_the_workers(
         assert [i for run in runs for i in run] == list(range(count))
         assert len(runs) >= min(count, jobs * TASKS_PER_WORKER)
         assert 2 * jobs * len(runs[0]) <= 64 or len(runs[0]) == 1  # two runs per worker in the window
-        assert len({len(run) for run in runs[:-1]}) <= 1 and len(runs[-1]) <= len(runs[0])
+        size, last = len(runs[0]), min(count, jobs * len(runs[0]))
+        assert [len(run) for run in runs[len(runs) - last :]] == [1] * last  # the workers end together
+        assert len({len(run) for run in runs[: len(runs) - last - 1]}) <= 1 and max(map(len, runs)) == size
 
 
 def test_a_result_slot_holds_what_fits_and_hands_back_what_does_not():

@@ -90,7 +90,8 @@ class Consumer:
             self._receive()
 
     def result(self) -> Any:
-        """End the messages and return the consumer's result.
+        """End the messages and return the consumer's result. The process, which exits
+        once it has sent its result, is waited for by :meth:`close`.
 
         Raises:
             Exception: what the consumer raised.
@@ -104,11 +105,10 @@ class Consumer:
             try:
                 self._outcome = self._conn.recv()
             except (EOFError, OSError):
+                self.close()
                 self._outcome = ("error", SliceError(
                     "a worker process died while slicing (killed, or out of memory); no output was written",
                     hint="retry with --jobs 1 to slice in one process"))
-            finally:
-                self.close()
         kind, value = self._outcome
         if kind == "error":
             raise value
@@ -263,9 +263,13 @@ TASKS_PER_WORKER = 32
 
 def _runs(items: list, jobs: int, window: int) -> list[list]:
     """``items`` cut into consecutive runs, :data:`TASKS_PER_WORKER` per worker or more,
-    and short enough for two runs per worker to fit in ``window`` items."""
+    and short enough for two runs per worker to fit in ``window`` items. The last
+    ``jobs`` runs' worth of items go one per run: the workers finish within an item of
+    each other, and the last results arrive one by one, so that what the writer and the
+    verifier still have to do once the workers are done is one item's share."""
     size = max(1, min(len(items) // (jobs * TASKS_PER_WORKER), window // (2 * jobs)))
-    return [items[i : i + size] for i in range(0, len(items), size)]
+    head = len(items) - min(len(items), jobs * size)
+    return [items[i : min(i + size, head)] for i in range(0, head, size)] + [[item] for item in items[head:]]
 
 
 def default_jobs() -> int:
