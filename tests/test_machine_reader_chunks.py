@@ -1,5 +1,7 @@
 """Reading and verifying G-code in chunks gives what the whole program gives."""
 
+import os
+
 import numpy as np
 import pytest
 
@@ -98,7 +100,7 @@ def test_verify_carries_temperatures_and_relative_mode_into_later_chunks():
     assert [f.line for f in faults] == [26] and "(300 moves, to line 325)" in faults[0].message
 
 
-def test_verify_of_a_file_followed_while_it_is_written(tmp_path):
+def test_verify_of_a_file_followed_while_it_is_written(tmp_path, monkeypatch):
     """Blocks split anywhere (mid-line, mid-number) and a file read as it grows give the
     faults of the whole text."""
     from fgslice.machine.verify import follow_file, verify_gcode_blocks
@@ -120,9 +122,14 @@ def test_verify_of_a_file_followed_while_it_is_written(tmp_path):
                 handle.flush()
                 yield handle.tell()
 
+    advised = []
+    monkeypatch.setattr(os, "posix_fadvise", lambda fd, offset, length, advice: advised.append((offset, length, advice)))
     read = list(follow_file(path, writer(), min_block=16))
     assert b"".join(read) == text and len(read) > 3
     assert verify_gcode_blocks(read, SETTINGS) == whole
+    # every block read is handed back for write-back, exactly the bytes read
+    assert [(o, n) for o, n, _ in advised] == list(zip(np.cumsum([0, *map(len, read)])[:-1].tolist(), map(len, read)))
+    assert {a for _, _, a in advised} == {os.POSIX_FADV_DONTNEED}
 
 
 def test_numbers_short_and_long_read_as_float_does():

@@ -167,3 +167,15 @@ def test_output_failing_verification_is_refused_and_not_written(tmp_path, jobs):
     assert "M140: bed temperature 60 C is outside 0..40 C" in message
     assert "below min_extrude_temperature 250 C" in message
     assert not out.exists() and not list(tmp_path.iterdir())
+
+
+def test_a_fault_in_the_last_line_is_found_by_the_process_that_follows_the_file(tmp_path):
+    """The verifier reads the file while it is written and what is left at the end: a
+    command past the machine's limits in the end G-code (the file's last line) is found."""
+    from fgslice.errors import SliceError
+
+    settings = load_settings(None, {"colors": "2", "end_gcode": "M104 S0\nM84\nM104 S999"})
+    out = tmp_path / "part.gcode"
+    with pytest.raises(SliceError, match="fails verification") as info:
+        slice_to_gcode(api.design(GRADIENT_X), settings, out, jobs=2)
+    assert "999" in str(info.value) and not out.exists() and not list(tmp_path.iterdir())

