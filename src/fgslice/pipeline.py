@@ -116,10 +116,14 @@ class SliceResult:
     stats: dict
 
 
-SECTION_BATCH = 8
+SECTION_BATCH = 16
 """Strategy 1 sections this many consecutive layers per task (:meth:`Design.sections`): a
 mesh sections them in one vectorized pass. 3DBenchy, 240 layers, one process: 413 ms
-of outlines one layer at a time, 238 ms in batches of 8 (236 ms in batches of 16)."""
+of outlines one layer at a time, 238 ms in batches of 8 (236 ms in batches of 16). With
+workers each batch is a pool task, and 8 of the vase's layers take 2-3 ms, about as much
+as the task costs the pool: in batches of 16 its section pass took 151-175 ms instead of
+175-240 ms (three runs each, ``--jobs 2``), and the palette's 10 layers are one batch,
+sectioned without starting a pool."""
 
 
 def _section_task(job: SliceJob, indices: Sequence[int]) -> list[shapely.Geometry]:
