@@ -132,7 +132,13 @@ def test_pool_results_are_whole_whether_they_fit_a_result_slot_or_not(monkeypatc
     assert all((r == n).all() for r, n in zip(results, sizes))  # read after the pool and its slots are gone
 
 
-def test_a_pool_map_left_early_closes_its_shared_memory_cleanly():
+def test_a_pool_map_left_early_closes_its_shared_memory_cleanly(monkeypatch):
+    import multiprocessing
+
+    closed = []
+    close = _ResultSlots.close
+    monkeypatch.setattr(_ResultSlots, "close", lambda self: (close(self), closed.append(self.memory.closed)))
     results = map_ordered(square_and_pid, 0, range(1000), jobs=2)
     assert [next(results)[0] for _ in range(3)] == [0, 1, 4]
-    results.close()  # the workers stop and the slots close (no view of them is left open)
+    results.close()  # no view of the slots is left open, or closing their memory would raise
+    assert closed == [True] and multiprocessing.active_children() == []

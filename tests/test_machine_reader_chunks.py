@@ -124,7 +124,7 @@ def test_verify_of_a_file_followed_while_it_is_written(tmp_path, monkeypatch):
 
     advised = []
     monkeypatch.setattr(os, "posix_fadvise", lambda fd, offset, length, advice: advised.append((offset, length, advice)))
-    read = list(follow_file(path, writer(), min_block=16))
+    read = list(follow_file(path, writer()))
     assert b"".join(read) == text and len(read) > 3
     assert verify_gcode_blocks(read, SETTINGS) == whole
     # every block read is handed back for write-back, exactly the bytes read

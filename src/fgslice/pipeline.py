@@ -383,7 +383,7 @@ def _verify_written(messages: Iterator, settings: Settings) -> list:
     """Faults of the file being written: ``messages`` is its name, then its size after
     each flush (see :func:`fgslice.machine.verify.follow_file`)."""
     name = next(messages)
-    return verify_gcode_blocks(follow_file(name, messages, min_block=0), settings, name=name)
+    return verify_gcode_blocks(follow_file(name, messages), settings, name=name)
 
 
 def build_time() -> datetime | None:

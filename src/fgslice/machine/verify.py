@@ -43,11 +43,11 @@ from fgslice.settings import Settings
 BED_TOLERANCE_MM = 0.1
 PRIME_ALLOWANCE_MM = 10.0
 MIX_SUM_TOLERANCE = 0.002
-#: Bytes a growing file is read in (:func:`follow_file`'s default block; the slicer tells
-#: its verifier when a block is due). What is left when the writer finishes is checked
-#: after it, so smaller blocks shorten that wait, and each block costs a fixed part of
-#: the check (1 MiB: the vase's verification ends about 0.05 s sooner than with 4 MiB, at
-#: the same total CPU).
+#: Bytes the slicer lets its file grow by before it tells its verifier to read them
+#: (:func:`follow_file`, which also reads what follows the last size in such blocks).
+#: What is left when the writer finishes is checked after it, so smaller blocks shorten
+#: that wait, and each block costs a fixed part of the check (1 MiB: the vase's
+#: verification ends about 0.05 s sooner than with 4 MiB, at the same total CPU).
 FOLLOW_BLOCK_BYTES = 1 << 20
 
 
@@ -270,11 +270,11 @@ def verify_gcode_blocks(blocks: Iterable[bytes], settings: Settings, *, name: st
     return verifier.faults()
 
 
-def follow_file(path: str | os.PathLike, sizes: Iterable[int], *, min_block: int = FOLLOW_BLOCK_BYTES) -> Iterator[bytes]:
+def follow_file(path: str | os.PathLike, sizes: Iterable[int]) -> Iterator[bytes]:
     """The bytes of a file that another process is writing: each size in ``sizes`` says
-    the file holds at least that many bytes (flushed); blocks of at least ``min_block``
-    bytes (0: every size's growth) are read as they become available, the rest once
-    ``sizes`` ends, in blocks of at most ``max(min_block, FOLLOW_BLOCK_BYTES)``.
+    the file holds at least that many bytes (flushed), and what it grew by is read as one
+    block (the writer decides how often to tell); the rest is read once ``sizes`` ends,
+    in blocks of at most :data:`FOLLOW_BLOCK_BYTES`.
 
     Each block read is handed to the kernel to be written to disk now (``posix_fadvise``
     ``DONTNEED`` starts the write-back of its pages without waiting for it; pages already
@@ -293,9 +293,9 @@ def follow_file(path: str | os.PathLike, sizes: Iterable[int], *, min_block: int
             return block
 
         for size in sizes:
-            if size > done and size - done >= min_block:
+            if size > done:
                 yield read(size - done)
-        while block := read(max(min_block, FOLLOW_BLOCK_BYTES)):
+        while block := read(FOLLOW_BLOCK_BYTES):
             yield block
 
 
