@@ -41,7 +41,6 @@ from __future__ import annotations
 
 import re
 from collections.abc import Sequence
-from concurrent.futures import ThreadPoolExecutor
 from functools import cached_property
 from pathlib import Path
 
@@ -258,11 +257,11 @@ class MeshGeometry:
         self.path = Path(path) if path is not None else None
         self.gap_tolerance = float(gap_tolerance)
         self._vertices, self._faces = _sorted_by_height(np.asarray(vertices, dtype=float), np.asarray(faces, dtype=np.int64))
-        with ThreadPoolExecutor(max_workers=1) as helper:  # the two tables are independent
-            heights = helper.submit(_height_tables, self._vertices, self._faces)
-            self._edges, self._face_edges, self._across = _edge_tables(self._faces, len(self._vertices))
-            self._edge_ends = np.take(self._vertices, self._edges, axis=0)
-            self._face_z, self._slabs = heights.result()
+        self._edges, self._face_edges, self._across = _edge_tables(self._faces, len(self._vertices))
+        self._face_z = np.ascontiguousarray(self._vertices[:, 2])[self._faces]
+        self._edge_ends = np.take(self._vertices, self._edges, axis=0)
+        z0, z1, z2 = self._face_z.T
+        self._slabs = _SlabIndex(np.minimum(np.minimum(z0, z1), z2), np.maximum(np.maximum(z0, z1), z2))
 
     @property
     def triangle_count(self) -> int:
@@ -343,19 +342,6 @@ def _sorted_by_height(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarr
     faces = rank[faces]
     lowest = np.minimum(np.minimum(faces[:, 0], faces[:, 1]), faces[:, 2])
     return np.take(vertices, order, axis=0), np.take(faces, np.argsort(lowest, kind="stable"), axis=0)
-
-
-def _height_tables(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, "_SlabIndex"]:
-    """The corners' heights ``(F, 3)`` (mm) and the faces binned by height (:class:`_SlabIndex`).
-
-    :class:`MeshGeometry` builds them in a thread while it builds the edge tables: numpy
-    releases the interpreter lock in the sorts, gathers and arithmetic of both, so the
-    two run on two cores (3DBenchy: 51-64 ms for both instead of 83-103 ms one after the
-    other, five fresh processes each).
-    """
-    face_z = np.ascontiguousarray(vertices[:, 2])[faces]
-    z0, z1, z2 = face_z.T
-    return face_z, _SlabIndex(np.minimum(np.minimum(z0, z1), z2), np.maximum(np.maximum(z0, z1), z2))
 
 
 def _edge_tables(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
