@@ -156,3 +156,12 @@ def test_convex_walls_are_geos_offsets_vertex_for_vertex(reverse):
             ring = shapely.get_coordinates(shapely.get_exterior_ring(loop))[:-1]
             assert path.points.shape == ring.shape
             assert np.abs(path.points - ring).max() < 1e-9
+
+
+@pytest.mark.parametrize("outline", [shapely.box(0, 0, 10, 0.3), shapely.MultiPolygon([shapely.box(0, 0, 0.35, 0.35)])],
+                         ids=["strip", "speck"])
+def test_outline_narrower_than_a_bead_gets_no_walls(outline):
+    # the tip of a tilted torus, a sliver of a mesh: no loop fits, nothing is left inside
+    walls = make_walls(outline, 2, 0.4, 0.2)
+    assert walls.paths == []
+    assert walls.inner.is_empty and walls.eroded.is_empty

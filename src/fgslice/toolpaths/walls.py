@@ -211,7 +211,8 @@ def ring_groups(geoms) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     big = shapely.get_num_coordinates(rings) >= 4
     rings, ring_part = rings[big], ring_part[big]
     coords, index = shapely.get_coordinates(rings, return_index=True)
-    last = np.append(index[1:] != index[:-1], True)
+    last = np.ones(len(index), dtype=bool)  # each ring's repeated closing vertex
+    last[:-1] = index[1:] != index[:-1]
     return coords[~last], index[~last], part_src[ring_part]
 
 
@@ -239,6 +240,8 @@ def split_rings(coords: np.ndarray, index: np.ndarray, roles, colors, width, hei
 def island_of(outline, coords: np.ndarray, ring_index: np.ndarray) -> np.ndarray:
     """For each ring (flat vertices as :func:`ring_groups` gives), the index of the part
     of ``outline`` that holds its first vertex (-1 if none)."""
+    if len(coords) == 0:
+        return np.empty(0, dtype=np.int64)
     first = np.flatnonzero(np.insert(ring_index[1:] != ring_index[:-1], 0, True))
     islands = shapely.get_parts(outline)
     ring, island = shapely.STRtree(islands).query(shapely.points(coords[first]), predicate="intersects")
