@@ -30,7 +30,8 @@ def _geometry(mesh: trimesh.Trimesh) -> MeshGeometry:
 
 
 def _as_trimesh(geometry: MeshGeometry) -> trimesh.Trimesh:
-    return trimesh.Trimesh(geometry._vertices, geometry._faces, process=False)
+    whole = geometry._whole  # the whole mesh's tables: vertices merged
+    return trimesh.Trimesh(whole.vertices, whole.faces, process=False)
 
 
 def _save(mesh: trimesh.Trimesh, path: Path, **kwargs) -> Path:
@@ -254,3 +255,31 @@ def test_bodies_touching_along_shared_edges_slice_as_their_union(tmp_path, centr
         section = _geometry(shuffled).section(0.3)
         assert section.is_valid
         assert section.area == pytest.approx(100.0 * len(centres), rel=1e-12)
+
+
+@pytest.mark.parametrize("name, kwargs", [("torus.stl", {}), ("torus_ascii.stl", {"file_type": "stl_ascii"}), ("torus.obj", {}), ("torus.3mf", {})])
+def test_batches_section_like_the_whole_mesh(tmp_path, name, kwargs):
+    # without the whole mesh's tables, each call builds tables of the triangles its planes
+    # span; the outlines must be those of the whole tables, to the byte
+    torus = trimesh.creation.torus(major_radius=10.0, minor_radius=3.0, major_sections=48, minor_sections=24)
+    torus.apply_transform(trimesh.transformations.rotation_matrix(0.3, (1, 0, 0)))
+    path = _save(torus, tmp_path / name, **kwargs)
+    zs = np.linspace(-7.0, 7.0, 71)
+    batched = load_mesh(path)
+    by_batch = [s for start in range(0, len(zs), 16) for s in batched.sections(zs[start : start + 16])]
+    assert "_whole" not in vars(batched)  # no whole tables were built for them
+    whole = load_mesh(path)
+    whole.prepare_sections()
+    assert [s.wkb for s in by_batch] == [s.wkb for s in whole.sections(zs)]
+    assert sum(not s.is_empty for s in by_batch) > 50
+    assert batched.section(float(zs[0])).is_empty and batched.sections([]) == []
+
+
+def test_benchy_batches_section_like_the_whole_mesh(benchy_path):
+    zs = 0.1 + 0.2 * np.arange(240)
+    batched = load_mesh(benchy_path)
+    by_batch = [s for start in range(0, len(zs), 16) for s in batched.sections(zs[start : start + 16])]
+    assert "_whole" not in vars(batched)
+    whole = load_mesh(benchy_path)
+    whole.prepare_sections()
+    assert [s.wkb for s in by_batch] == [s.wkb for s in whole.sections(zs)]

@@ -56,9 +56,10 @@ def test_binary_and_ascii_stl_read_like_trimesh(tmp_path, sphere):
         geometry = load_mesh(path)
         reference = trimesh.load(path, process=False)
         assert geometry.triangle_count == len(sphere.faces)
-        assert len(geometry._vertices) == len(sphere.vertices)  # shared corners merged
+        whole = geometry._whole  # the whole mesh's tables
+        assert len(whole.vertices) == len(sphere.vertices)  # shared corners merged
         assert geometry.watertight
-        ours = _canonical(geometry._vertices[geometry._faces])
+        ours = _canonical(whole.vertices[whole.faces])
         np.testing.assert_array_equal(ours, _canonical(reference.triangles))
         assert geometry.section(3.0).area == pytest.approx(_trimesh_area(reference, 3.0), rel=1e-9)
 
@@ -136,8 +137,9 @@ def test_benchy_binary_reads_exactly_like_trimesh(benchy_path):
     reference = trimesh.load(benchy_path, process=False)
     assert geometry.triangle_count == len(reference.faces)
     distinct = np.unique(np.ascontiguousarray(reference.vertices).view(np.dtype((np.void, 24))))
-    assert len(geometry._vertices) == len(distinct)
-    np.testing.assert_array_equal(_canonical(geometry._vertices[geometry._faces]), _canonical(reference.triangles))
+    whole = geometry._whole  # the whole mesh's tables
+    assert len(whole.vertices) == len(distinct)
+    np.testing.assert_array_equal(_canonical(whole.vertices[whole.faces]), _canonical(reference.triangles))
 
 
 def _modules_after(code: str) -> set[str]:

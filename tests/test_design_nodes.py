@@ -246,7 +246,7 @@ def test_sections_of_many_heights_equal_one_section_each_and_mesh_planes_are_cut
     a mesh inside the tree is cut at all its heights in one batch."""
     import trimesh
 
-    from fgslice.design.mesh import MeshGeometry
+    from fgslice.design.mesh import _Tables
 
     torus = trimesh.creation.torus(major_radius=8, minor_radius=3, major_sections=48, minor_sections=24)
     torus.export(tmp_path / "torus.stl")
@@ -262,8 +262,8 @@ def test_sections_of_many_heights_equal_one_section_each_and_mesh_planes_are_cut
     zs = [2.9, -1.0, 0.0, 0.5, 7.0, -2.95, 1.7, 3.5]
     one_each = [design.section(z) for z in zs]
     batches = []
-    original = MeshGeometry._section_batch
-    monkeypatch.setattr(MeshGeometry, "_section_batch", lambda self, planes: batches.append(len(planes)) or original(self, planes))
+    original = _Tables._section_batch
+    monkeypatch.setattr(_Tables, "_section_batch", lambda self, planes, gap: batches.append(len(planes)) or original(self, planes, gap))
     together = design.sections(zs)
     assert batches == [6]  # z = 3.5 and 7 lie above the torus: the other six in one batch
     assert [g.wkb for g in together] == [g.wkb for g in one_each]

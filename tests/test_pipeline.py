@@ -108,6 +108,31 @@ def test_parallel_output_is_byte_identical(tmp_path, monkeypatch, strategy):
     assert one.read_bytes() == two.read_bytes()
 
 
+@pytest.mark.parametrize("strategy, suffix", [("1", ".stl"), ("1", ".obj"), ("2", ".stl")])
+def test_parallel_output_of_a_mesh_is_byte_identical(tmp_path, monkeypatch, strategy, suffix):
+    """A mesh's layers are sectioned in batches by the workers (strategy 1, tables of the
+    triangles each batch spans) or one by one from the whole mesh's tables (strategy 2):
+    the file is the same as with one process."""
+    import trimesh
+
+    from fgslice.preview.thumbnails import render_thumbnails
+
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000000")
+    torus = trimesh.creation.torus(major_radius=12.0, minor_radius=4.0, major_sections=40, minor_sections=20)
+    torus.apply_transform(trimesh.transformations.rotation_matrix(0.4, (1, 0, 0)))
+    path = tmp_path / f"torus{suffix}"
+    torus.export(path)
+    design = api.design(api.fgrade(["x/40 + 0.5", "0.5 - x/40"], ["blue", "yellow"], api.mesh(path)))
+    settings = load_settings(None, {"colors": "4", "strategy": strategy, "walls": "2", "thumbnails": "16x16"})
+    one, two = tmp_path / "one.gcode", tmp_path / "two.gcode"
+    slice_to_gcode(design, settings, one, jobs=1, thumbnails=tuple(render_thumbnails(design, settings)))
+    slice_to_gcode(api.design(api.fgrade(["x/40 + 0.5", "0.5 - x/40"], ["blue", "yellow"], api.mesh(path))),
+                   settings, two, jobs=2, thumbnails=lambda: render_thumbnails(design, settings))
+    program = read_gcode(two)
+    assert len(program.layer_z) > 30
+    assert one.read_bytes() == two.read_bytes()
+
+
 @pytest.mark.parametrize("jobs", [1, 2])
 def test_failing_thumbnails_stop_the_slice_and_write_nothing(tmp_path, jobs):
     """An error while rendering thumbnails (in its own process with workers) reaches the

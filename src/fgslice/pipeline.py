@@ -257,6 +257,8 @@ def slice_to_gcode(
     check_resources(design, settings, len(layers))
     bed_center = np.array([settings.bed_x / 2, settings.bed_y / 2])
     job = SliceJob(design, settings, palette, placement, layers, bed_center)
+    if settings.strategy == 2:  # one plane per layer task (strategy 1 sections batches of layers)
+        design.prepare_sections()
     _prepare_for_workers()
 
     with contextlib.ExitStack() as cleanup:

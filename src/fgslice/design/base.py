@@ -59,3 +59,8 @@ class Design(ABC):
         """The outlines at every height of ``zs`` (design frame), in order: :meth:`section`
         at each; designs that compute many planes faster together override it."""
         return [self.section(float(z)) for z in zs]
+
+    def prepare_sections(self) -> None:
+        """Build now, once, what :meth:`section` needs for any single plane, so that worker
+        processes forked afterwards share it instead of each building it (a mesh's tables);
+        designs that need nothing leave it alone."""

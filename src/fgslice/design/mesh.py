@@ -12,7 +12,8 @@ the two points where the plane cuts its edges. Conventions and robustness rules:
 * Segment ends are identified by the unique mesh edge they lie on; segments are stitched
   into loops through those ids (two segments per edge on a manifold mesh; at an edge
   of two consistently wound faces the next segment is found directly from the face
-  across, a table built once per mesh). At a
+  across, a table built for the whole mesh or for the triangles a batch of planes
+  spans, see :class:`MeshGeometry`). At a
   non-manifold edge (more than two faces) a segment's end is paired with another
   segment's start (in order of index), so loops keep the triangles' winding. Ends left
   open (holes in a non-watertight mesh) are joined to the nearest other open end of
@@ -106,10 +107,7 @@ def load_mesh(path: str | Path, *, gap_tolerance: float = 0.25) -> MeshGeometry:
             file=path,
             hint="repair the mesh (e.g. with your CAD program's mesh repair) and export it again",
         )
-    vertices, inverse = _merge_vertices(vertices)  # the corners' array is freed here
-    faces = inverse.reshape(-1, 3) if faces is None else inverse[faces]
-    del inverse
-    return MeshGeometry(vertices, faces, path=path, gap_tolerance=gap_tolerance)
+    return MeshGeometry(vertices, faces, merge=True, path=path, gap_tolerance=gap_tolerance)
 
 
 def _read_with_trimesh(path: Path, file_type: str) -> tuple[np.ndarray, np.ndarray]:
@@ -246,22 +244,36 @@ def _merge_vertices(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 class MeshGeometry:
     """A triangle mesh with exact sections and a signed distance (mm, file frame).
 
+    Sections need tables of the triangles (vertices merged and ordered by height, edges,
+    the face across each edge, triangles binned by height: :class:`_Tables`). Those of
+    the whole mesh are built when asked for (:meth:`prepare_sections`, :attr:`watertight`)
+    and kept. Until then, every call of :meth:`sections` (and :meth:`section`) builds
+    tables of only the triangles its planes can cross: a triangle that a plane crosses through an edge
+    shares that edge with another crossed triangle, so the subset sections exactly like
+    the whole mesh. A slice's batches of layers are then sectioned in the worker
+    processes, each with its own small tables, while the parent only reads the file.
+    3DBenchy, 240 layers in 15 batches: the subsets hold 0.98x its triangles in all and
+    cost 171-210 ms more CPU than sectioning with the whole tables, which took the
+    parent 260-330 ms on one core; a single-material slice with two workers went from
+    1.98 to 1.80 s (medians of 12 alternating runs) and its peak from 145 to 86 MB.
+
     Attributes:
         path: the file the mesh was read from (None when built in memory).
         gap_tolerance: the largest gap (mm) between open chain ends a section bridges.
     """
 
-    def __init__(self, vertices: np.ndarray, faces: np.ndarray, *, path: str | Path | None = None, gap_tolerance: float = 0.25):
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray | None = None, *, merge: bool = False,
+                 path: str | Path | None = None, gap_tolerance: float = 0.25):
         """Build from ``vertices`` (V, 3) in mm and ``faces`` (F, 3) vertex indices (wound
-        counter-clockwise seen from outside); vertices are used as given (not merged)."""
+        counter-clockwise seen from outside), or ``faces=None``: every three consecutive
+        vertices are one triangle's corners. With ``merge``, coincident vertices (equal
+        after rounding to :data:`_MERGE_DIGITS` decimals) are merged before any table is
+        built; without, vertices are used as given."""
         self.path = Path(path) if path is not None else None
         self.gap_tolerance = float(gap_tolerance)
-        self._vertices, self._faces = _sorted_by_height(np.asarray(vertices, dtype=float), np.asarray(faces, dtype=np.int64))
-        self._edges, self._face_edges, self._across = _edge_tables(self._faces, len(self._vertices))
-        self._face_z = np.ascontiguousarray(self._vertices[:, 2])[self._faces]
-        self._edge_ends = np.take(self._vertices, self._edges, axis=0)
-        z0, z1, z2 = self._face_z.T
-        self._slabs = _SlabIndex(np.minimum(np.minimum(z0, z1), z2), np.maximum(np.maximum(z0, z1), z2))
+        self._vertices = np.asarray(vertices, dtype=float)
+        self._faces = np.arange(len(self._vertices)).reshape(-1, 3) if faces is None else np.asarray(faces, dtype=np.int64)
+        self._merge = merge
 
     @property
     def triangle_count(self) -> int:
@@ -271,7 +283,10 @@ class MeshGeometry:
     @cached_property
     def watertight(self) -> bool:
         """True when every edge is shared by exactly two faces."""
-        return len(self._faces) > 0 and bool((np.bincount(self._face_edges.ravel(), minlength=len(self._edges)) == 2).all())
+        if len(self._faces) == 0:
+            return False
+        whole = self._whole
+        return bool((np.bincount(whole.face_edges.ravel(), minlength=len(whole.edges)) == 2).all())
 
     def bounds(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
         """Axis-aligned bounding box ``((minx, miny, minz), (maxx, maxy, maxz))`` in mm."""
@@ -279,37 +294,50 @@ class MeshGeometry:
         hi = self._vertices.max(axis=0)
         return (tuple(float(v) for v in lo), tuple(float(v) for v in hi))
 
+    def prepare_sections(self) -> None:
+        """Build the whole mesh's tables now (before worker processes fork, so that they
+        share them: one plane per task needs them, a subset per plane would cost more)."""
+        self._whole  # a cached property: built here, then kept
+
     def section(self, z: float) -> shapely.MultiPolygon:
         """The cross-section at height ``z`` (mm), valid; empty outside the mesh."""
         return self.sections([z])[0]
 
     def sections(self, zs: Sequence[float] | np.ndarray) -> list[shapely.MultiPolygon]:
-        """Cross-sections at every height of ``zs`` (any order), computed together."""
+        """Cross-sections at every height of ``zs`` (any order), computed together: with
+        the whole mesh's tables once they exist, else with tables of the triangles that
+        span the heights' range."""
         zs = np.asarray(zs, dtype=float).ravel()
-        candidates = self._slabs.candidate_counts(zs)
-        result = np.empty(len(zs), dtype=object)
-        begin = 0
-        while begin < len(zs):
-            end = begin + 1
-            total = int(candidates[begin])
-            while end < len(zs) and total + candidates[end] <= _MAX_PAIRS_PER_BATCH:
-                total += int(candidates[end])
-                end += 1
-            result[begin:end] = self._section_batch(zs[begin:end])
-            begin = end
-        return list(result)
+        tables = self.__dict__.get("_whole")
+        if tables is None and len(zs):
+            zmin, zmax = self._face_spans
+            spanned = self._faces[(zmin < zs.max()) & (zmax >= zs.min())]
+            if len(spanned) == 0:
+                return [_EMPTY] * len(zs)
+            tables = self._tables(spanned)
+        return tables.sections(zs, self.gap_tolerance) if len(zs) else []
 
-    def _section_batch(self, zs: np.ndarray) -> np.ndarray:
-        """Sections (MultiPolygons) at the heights ``zs``."""
-        plane, face = self._slabs.crossings(zs)
-        if len(face) == 0:
-            return np.full(len(zs), _EMPTY, dtype=object)
-        node_ids, points, next_face = _plane_segments(self._face_z, self._edge_ends, self._face_edges, self._across, face, zs[plane])
-        node_ids = node_ids + plane[:, None] * len(self._edges)
-        key = plane * len(self._faces) + face  # ascending: crossings() lists planes, then faces, in order
-        successor = np.where(next_face >= 0, np.searchsorted(key, plane * len(self._faces) + next_face), -1)
-        rings, ring_plane, ring_direction = _stitch(node_ids, points, plane, successor, self.gap_tolerance)
-        return _assemble(rings, ring_plane, ring_direction, len(zs))
+    @cached_property
+    def _whole(self) -> "_Tables":
+        if self._merge:  # from here on the merged vertices stand for the file's (one copy fewer)
+            self._vertices, inverse = _merge_vertices(self._vertices)
+            self._faces, self._merge = inverse[self._faces], False
+            self.__dict__.pop("_face_spans", None)
+        return _Tables(self._vertices, self._faces)
+
+    @cached_property
+    def _face_spans(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lowest and highest corner height of each face, mm."""
+        z = np.ascontiguousarray(self._vertices[:, 2])[self._faces]
+        return z.min(axis=1), z.max(axis=1)
+
+    def _tables(self, faces: np.ndarray) -> "_Tables":
+        """Tables of the triangles ``faces`` (rows of the mesh's faces)."""
+        if self._merge:
+            vertices, inverse = _merge_vertices(self._vertices[faces.ravel()])
+            return _Tables(vertices, inverse.reshape(-1, 3))
+        used, inverse = np.unique(faces, return_inverse=True)
+        return _Tables(self._vertices[used], inverse.reshape(-1, 3))
 
     def sdf(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
         """Signed distance (mm) to the surface, negative inside; shape of the broadcast."""
@@ -331,6 +359,49 @@ class MeshGeometry:
     def _ray_counters(self) -> tuple[_RayCrossings, ...]:
         triangles = self._vertices[self._faces]
         return tuple(_RayCrossings(triangles, axis) for axis in range(3))
+
+
+class _Tables:
+    """What sections need of a set of triangles: vertices ordered by height and faces by
+    lowest vertex (:func:`_sorted_by_height`), unique edges, each face's edges and the
+    face across each of them (:func:`_edge_tables`), corner heights, edge end points and
+    the faces binned by height (:class:`_SlabIndex`)."""
+
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray):
+        self.vertices, self.faces = _sorted_by_height(vertices, faces)
+        self.edges, self.face_edges, self.across = _edge_tables(self.faces, len(self.vertices))
+        self.face_z = np.ascontiguousarray(self.vertices[:, 2])[self.faces]
+        self.edge_ends = np.take(self.vertices, self.edges, axis=0)
+        z0, z1, z2 = self.face_z.T
+        self.slabs = _SlabIndex(np.minimum(np.minimum(z0, z1), z2), np.maximum(np.maximum(z0, z1), z2))
+
+    def sections(self, zs: np.ndarray, gap_tolerance: float) -> list[shapely.MultiPolygon]:
+        """Sections at the heights ``zs``, in batches of at most :data:`_MAX_PAIRS_PER_BATCH`
+        (plane, triangle) pairs."""
+        candidates = self.slabs.candidate_counts(zs)
+        result = np.empty(len(zs), dtype=object)
+        begin = 0
+        while begin < len(zs):
+            end = begin + 1
+            total = int(candidates[begin])
+            while end < len(zs) and total + candidates[end] <= _MAX_PAIRS_PER_BATCH:
+                total += int(candidates[end])
+                end += 1
+            result[begin:end] = self._section_batch(zs[begin:end], gap_tolerance)
+            begin = end
+        return list(result)
+
+    def _section_batch(self, zs: np.ndarray, gap_tolerance: float) -> np.ndarray:
+        """Sections (MultiPolygons) at the heights ``zs``."""
+        plane, face = self.slabs.crossings(zs)
+        if len(face) == 0:
+            return np.full(len(zs), _EMPTY, dtype=object)
+        node_ids, points, next_face = _plane_segments(self.face_z, self.edge_ends, self.face_edges, self.across, face, zs[plane])
+        node_ids = node_ids + plane[:, None] * len(self.edges)
+        key = plane * len(self.faces) + face  # ascending: crossings() lists planes, then faces, in order
+        successor = np.where(next_face >= 0, np.searchsorted(key, plane * len(self.faces) + next_face), -1)
+        rings, ring_plane, ring_direction = _stitch(node_ids, points, plane, successor, gap_tolerance)
+        return _assemble(rings, ring_plane, ring_direction, len(zs))
 
 
 def _sorted_by_height(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -906,3 +906,8 @@ class NodeDesign(Design):
     def sections(self, zs: Sequence[float], spacing: float | None = None) -> list[shapely.MultiPolygon]:
         """Outlines at every height of ``zs``, like :meth:`section` at each, computed together."""
         return [as_multipolygon(g) for g in self.root.sections([float(z) for z in zs], spacing or self.section_spacing)]
+
+    def prepare_sections(self) -> None:
+        """Build every mesh's whole tables now (:meth:`fgslice.design.mesh.MeshGeometry.prepare_sections`)."""
+        for mesh in self.meshes:
+            mesh.geometry.prepare_sections()
