@@ -122,12 +122,13 @@ def test_parallel_output_of_a_mesh_is_byte_identical(tmp_path, monkeypatch, stra
     torus.apply_transform(trimesh.transformations.rotation_matrix(0.4, (1, 0, 0)))
     path = tmp_path / f"torus{suffix}"
     torus.export(path)
-    design = api.design(api.fgrade(["x/40 + 0.5", "0.5 - x/40"], ["blue", "yellow"], api.mesh(path)))
     settings = load_settings(None, {"colors": "4", "strategy": strategy, "walls": "2", "thumbnails": "16x16"})
     one, two = tmp_path / "one.gcode", tmp_path / "two.gcode"
-    slice_to_gcode(design, settings, one, jobs=1, thumbnails=tuple(render_thumbnails(design, settings)))
-    slice_to_gcode(api.design(api.fgrade(["x/40 + 0.5", "0.5 - x/40"], ["blue", "yellow"], api.mesh(path))),
-                   settings, two, jobs=2, thumbnails=lambda: render_thumbnails(design, settings))
+    # a design loaded afresh for each slice: neither finds tables the other built
+    for out, jobs in ((one, 1), (two, 2)):
+        design = api.design(api.fgrade(["x/40 + 0.5", "0.5 - x/40"], ["blue", "yellow"], api.mesh(path)))
+        thumbnails = (lambda d=design: render_thumbnails(d, settings)) if jobs > 1 else tuple(render_thumbnails(design, settings))
+        slice_to_gcode(design, settings, out, jobs=jobs, thumbnails=thumbnails)
     program = read_gcode(two)
     assert len(program.layer_z) > 30
     assert one.read_bytes() == two.read_bytes()

@@ -216,6 +216,14 @@ def ring_groups(geoms) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return coords[~last], index[~last], part_src[ring_part]
 
 
+def ring_starts(index: np.ndarray) -> np.ndarray:
+    """Where each ring begins in flat vertices (``index`` per vertex, as :func:`ring_groups`
+    gives); empty when there are no vertices."""
+    starts = np.ones(len(index), dtype=bool)
+    starts[1:] = index[1:] != index[:-1]
+    return np.flatnonzero(starts)
+
+
 def split_rings(coords: np.ndarray, index: np.ndarray, roles, colors, width, height: float, groups=-1) -> list[Path]:
     """Closed :class:`Path` objects from flat ring vertices (as :func:`ring_groups` gives).
 
@@ -224,7 +232,7 @@ def split_rings(coords: np.ndarray, index: np.ndarray, roles, colors, width, hei
     """
     if len(coords) == 0:
         return []
-    starts = np.flatnonzero(np.insert(index[1:] != index[:-1], 0, True))
+    starts = ring_starts(index)
     ends = np.append(starts[1:], len(coords))
     n = len(starts)
     roles = [roles] * n if isinstance(roles, Role) else list(roles)
@@ -240,9 +248,7 @@ def split_rings(coords: np.ndarray, index: np.ndarray, roles, colors, width, hei
 def island_of(outline, coords: np.ndarray, ring_index: np.ndarray) -> np.ndarray:
     """For each ring (flat vertices as :func:`ring_groups` gives), the index of the part
     of ``outline`` that holds its first vertex (-1 if none)."""
-    if len(coords) == 0:
-        return np.empty(0, dtype=np.int64)
-    first = np.flatnonzero(np.insert(ring_index[1:] != ring_index[:-1], 0, True))
+    first = ring_starts(ring_index)
     islands = shapely.get_parts(outline)
     ring, island = shapely.STRtree(islands).query(shapely.points(coords[first]), predicate="intersects")
     out = np.full(len(first), -1, dtype=np.int64)
@@ -261,7 +267,7 @@ def _mitres_exact(outline) -> bool:
     coords, ring, _ = ring_groups(outline)
     if len(coords) == 0:
         return True
-    first = np.flatnonzero(np.insert(ring[1:] != ring[:-1], 0, True))
+    first = ring_starts(ring)
     last = np.append(first[1:], len(coords)) - 1
     nxt, prv = np.arange(1, len(coords) + 1), np.arange(-1, len(coords) - 1)
     nxt[last], prv[first] = first, last
