@@ -23,6 +23,7 @@ only on the design, the settings and the layer index.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import importlib
 import itertools
 import os
@@ -47,6 +48,7 @@ from fgslice.output import atomic_output
 from fgslice.planning.lookahead import apply_lookahead, apply_time_lead
 from fgslice.planning.order import order_layer
 from fgslice.planning.plan import LayerPlan
+from fgslice.planning.repeats import RepeatedLayers
 from fgslice.planning.purge import PurgeStats, PurgeTower, insert_purges
 from fgslice.settings import Settings
 from fgslice.slicing.field import BedField
@@ -69,12 +71,14 @@ COLOR_SAMPLE_MM = 2.0
 
 @dataclass
 class SliceJob:
-    """Everything a per-layer worker needs (read-only once built).
+    """Everything a per-layer worker needs (read-only once built, but for ``repeats``).
 
     Attributes:
         layers: ``(layer index, top z, height)`` per layer, bed frame, mm.
         start_xy: where each layer's travel ordering starts, bed frame, mm.
         outlines: strategy 1 only: every layer's bed-frame outline, in layer order.
+        repeats: strategy 2: the layers this process has finished, for later layers whose
+            regions repeat theirs (``planning.repeats``; the one part each process changes).
     """
 
     design: Design
@@ -84,6 +88,7 @@ class SliceJob:
     layers: list[tuple[int, float, float]]
     start_xy: np.ndarray
     outlines: list[shapely.Geometry] = field(default_factory=list)
+    repeats: RepeatedLayers = field(default_factory=RepeatedLayers)
 
 
 @dataclass
@@ -141,6 +146,10 @@ def _layer_task(job: SliceJob, index: int) -> LayerResult:
     i, z_top, height = job.layers[index]
     if s.strategy == 2:
         regions = slice_layer(job.design, job.placement, job.palette, i, z_top, height, s)
+        repeated = job.repeats.find(regions) if index > 0 else None
+        if repeated is not None:
+            plan, result = repeated
+            return dataclasses.replace(result, plan=plan)
         paths = strategy2.layer_paths(regions, s)
         short = None
     else:
@@ -155,7 +164,10 @@ def _layer_task(job: SliceJob, index: int) -> LayerResult:
     colors = len({p.color for p in paths.paths if p.color >= 0})
     plan = order_layer(paths, job.palette.order_for_layer(i), job.start_xy, s.feature_order)
     prepare_bodies(plan, s)
-    return LayerResult(plan=plan, short_pieces=short, uncovered_mm2=paths.uncovered_mm2, colors=colors)
+    result = LayerResult(plan=plan, short_pieces=short, uncovered_mm2=paths.uncovered_mm2, colors=colors)
+    if s.strategy == 2 and index > 0:
+        job.repeats.keep(regions, plan, result)
+    return result
 
 
 def _part_footprint(job: SliceJob) -> shapely.Geometry:
