@@ -48,8 +48,8 @@ from fgslice.output import atomic_output
 from fgslice.planning.lookahead import apply_lookahead, apply_time_lead
 from fgslice.planning.order import order_layer
 from fgslice.planning.plan import LayerPlan
-from fgslice.planning.repeats import RepeatedLayers
 from fgslice.planning.purge import PurgeStats, PurgeTower, insert_purges
+from fgslice.planning.repeats import RepeatedLayers
 from fgslice.settings import Settings
 from fgslice.slicing.field import BedField
 from fgslice.slicing.layers import LayerRegions, Placement

@@ -8,7 +8,9 @@ in reverse, rectilinear fill turns by 90 degrees; the layer's height above the b
 the plan, not in its moves). So a layer whose regions are identical to those of an
 earlier layer of the same parity (same vertices in the same order,
 ``shapely.equals_identical``, and the same thickness) takes that layer's plan instead of
-computing it again: the G-code is byte-identical either way.
+computing it again: the G-code is byte-identical either way. (The job's settings are the
+same for every layer; the pipeline neither keeps nor reuses the first layer, which also
+holds the skirt.)
 
 Each process keeps its own :class:`RepeatedLayers` (with workers, each worker reuses only
 the layers it computed itself), holding one layer per parity, so memory stays bounded.
