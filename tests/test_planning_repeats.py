@@ -87,3 +87,20 @@ def test_layers_of_a_field_graded_in_z_are_not_reused():
     results = [_layer_task(job, index) for index in range(1, 6)]
     for a, b in zip(results, results[2:]):
         assert not np.shares_memory(a.plan.packed.points, b.plan.packed.points)
+
+
+@pytest.mark.parametrize("overrides", [{}, {"lookahead_mm": "25"}, {"fill_pattern": "rectilinear"}],
+                         ids=["plain", "lookahead", "rectilinear"])
+def test_a_whole_slice_is_byte_identical_with_and_without_reuse(tmp_path, monkeypatch, overrides):
+    """One process (every repeated layer reused), its plans unpacked again by the look-ahead,
+    against the same slice with reuse turned off."""
+    from fgslice.pipeline import slice_to_gcode
+
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000000")
+    settings = load_settings(None, {"strategy": "2", "colors": "6", "layer_height": "0.2", "thumbnails": "", **overrides})
+    slice_to_gcode(parse_design(PRISM), settings, tmp_path / "reused.gcode", jobs=1)
+    monkeypatch.setattr(RepeatedLayers, "find", lambda self, regions: None)
+    slice_to_gcode(parse_design(PRISM), settings, tmp_path / "fresh.gcode", jobs=1)
+    reused, fresh = (tmp_path / "reused.gcode").read_bytes(), (tmp_path / "fresh.gcode").read_bytes()
+    assert reused.count(b";LAYER_CHANGE") == 12
+    assert reused == fresh
