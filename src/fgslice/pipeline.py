@@ -144,9 +144,10 @@ def _layer_task(job: SliceJob, index: int) -> LayerResult:
     """Regions, toolpaths and order of one layer, and its paths' G-code moves."""
     s = job.settings
     i, z_top, height = job.layers[index]
+    repeats = job.repeats if s.strategy == 2 and index > 0 else None  # the first layer holds the skirt
     if s.strategy == 2:
         regions = slice_layer(job.design, job.placement, job.palette, i, z_top, height, s)
-        repeated = job.repeats.find(regions) if index > 0 else None
+        repeated = repeats.find(regions) if repeats is not None else None
         if repeated is not None:
             plan, result = repeated
             return dataclasses.replace(result, plan=plan)
@@ -165,8 +166,8 @@ def _layer_task(job: SliceJob, index: int) -> LayerResult:
     plan = order_layer(paths, job.palette.order_for_layer(i), job.start_xy, s.feature_order)
     prepare_bodies(plan, s)
     result = LayerResult(plan=plan, short_pieces=short, uncovered_mm2=paths.uncovered_mm2, colors=colors)
-    if s.strategy == 2 and index > 0:
-        job.repeats.keep(regions, plan, result)
+    if repeats is not None:
+        repeats.keep(regions, plan, result)
     return result
 
 

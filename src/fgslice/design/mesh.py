@@ -307,14 +307,16 @@ class MeshGeometry:
         the whole mesh's tables once they exist, else with tables of the triangles that
         span the heights' range."""
         zs = np.asarray(zs, dtype=float).ravel()
+        if len(zs) == 0:
+            return []
         tables = self.__dict__.get("_whole")
-        if tables is None and len(zs):
+        if tables is None:
             zmin, zmax = self._face_spans
             spanned = self._faces[(zmin < zs.max()) & (zmax >= zs.min())]
             if len(spanned) == 0:
                 return [_EMPTY] * len(zs)
             tables = self._tables(spanned)
-        return tables.sections(zs, self.gap_tolerance) if len(zs) else []
+        return tables.sections(zs, self.gap_tolerance)
 
     @cached_property
     def _whole(self) -> "_Tables":

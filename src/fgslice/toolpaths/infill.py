@@ -31,6 +31,7 @@ from fgslice.toolpaths.walls import (
     offset_polygons,
     opening,
     ring_groups,
+    ring_starts,
     split_rings,
 )
 
@@ -82,10 +83,9 @@ def _scan_segments(coords: np.ndarray, ring: np.ndarray, spacing, min_length: fl
     segment at least ``min_length`` long; ``src`` is the ring whose edge the segment
     starts on (a segment lies in the region that ring bounds).
     """
+    first = ring_starts(ring)
     nxt = np.arange(1, len(coords) + 1)
-    last = np.r_[ring[1:] != ring[:-1], True]
-    first = np.flatnonzero(np.r_[True, ring[1:] != ring[:-1]])
-    nxt[last] = first
+    nxt[np.append(first[1:], len(coords)) - 1] = first
     p, q = coords, coords[nxt]
     per_ring = np.ndim(spacing) > 0
     step = np.asarray(spacing)[ring] if per_ring else spacing
