@@ -91,6 +91,33 @@ def test_pool_results_come_in_order_however_the_items_are_grouped_into_tasks(cou
     assert os.getpid() not in {pid for _, pid in results}
 
 
+@pytest.mark.parametrize("scheduler", [None, "tcp://127.0.0.1:1"])
+def test_a_probed_map_of_cheap_items_runs_them_all_here(scheduler):
+    """The first item, timed, says the others take far less than a pool costs: no
+    worker is started, no scheduler contacted (the address above answers nothing)."""
+    results = list(map_ordered(square_and_pid, 1, range(40), jobs=2, scheduler=scheduler, probe=True))
+    assert results == [(i * i + 1, os.getpid()) for i in range(40)]
+
+
+def slow_square_and_pid(state, item):
+    import time
+
+    time.sleep(0.05)
+    return square_and_pid(state, item)
+
+
+def test_a_probed_map_of_costly_items_gives_all_but_the_first_to_the_workers():
+    """10 items of 50 ms: 0.45 s for the rest in one process, over SERIAL_WORK_S."""
+    results = list(map_ordered(slow_square_and_pid, 1, range(10), jobs=2, probe=True))
+    assert [value for value, _ in results] == [i * i + 1 for i in range(10)]
+    assert results[0][1] == os.getpid() and os.getpid() not in {pid for _, pid in results[1:]}
+
+
+def test_a_probe_needs_workers_to_choose_between():
+    results = list(map_ordered(square_and_pid, 0, range(5), jobs=1, probe=True))
+    assert results == [(i * i, os.getpid()) for i in range(5)]
+
+
 def test_items_go_to_the_pool_in_consecutive_runs_enough_to_balance_the_workers_and_single_at_the_end():
     from fgslice.executor import TASKS_PER_WORKER, _runs
 

@@ -110,14 +110,19 @@ def test_parallel_output_is_byte_identical(tmp_path, monkeypatch, strategy):
 
 @pytest.mark.parametrize("strategy, suffix", [("1", ".stl"), ("1", ".obj"), ("2", ".stl")])
 def test_parallel_output_of_a_mesh_is_byte_identical(tmp_path, monkeypatch, strategy, suffix):
-    """A mesh's layers are sectioned in batches by the workers (strategy 1, tables of the
-    triangles each batch spans) or one by one from the whole mesh's tables (strategy 2):
-    the file is the same as with one process."""
+    """A mesh's layers are sectioned in batches (strategy 1, tables of the triangles each
+    batch spans), in this process or by the workers, as the probe finds them cheap or
+    costly (made to, with ``SERIAL_WORK_S``); or one by one from the whole mesh's tables
+    (strategy 2). The file is the same as with one process."""
     import trimesh
 
+    from fgslice import executor
     from fgslice.preview.thumbnails import render_thumbnails
 
     monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000000")
+    pooled = []
+    map_pool = executor._map_pool
+    monkeypatch.setattr(executor, "_map_pool", lambda fn, *a: pooled.append(fn.__name__) or map_pool(fn, *a))
     torus = trimesh.creation.torus(major_radius=12.0, minor_radius=4.0, major_sections=40, minor_sections=20)
     torus.apply_transform(trimesh.transformations.rotation_matrix(0.4, (1, 0, 0)))
     path = tmp_path / f"torus{suffix}"
@@ -125,13 +130,16 @@ def test_parallel_output_of_a_mesh_is_byte_identical(tmp_path, monkeypatch, stra
     settings = load_settings(None, {"colors": "4", "strategy": strategy, "walls": "2", "thumbnails": "16x16"})
     one, two = tmp_path / "one.gcode", tmp_path / "two.gcode"
     # a design loaded afresh for each slice: neither finds tables the other built
-    for out, jobs in ((one, 1), (two, 2)):
+    three = tmp_path / "three.gcode"
+    for out, jobs, serial_work_s in ((one, 1, None), (two, 2, 60.0), (three, 2, 0.0)):
+        monkeypatch.setattr(executor, "SERIAL_WORK_S", serial_work_s)
         design = api.design(api.fgrade(["x/40 + 0.5", "0.5 - x/40"], ["blue", "yellow"], api.mesh(path)))
         thumbnails = (lambda d=design: render_thumbnails(d, settings)) if jobs > 1 else tuple(render_thumbnails(design, settings))
         slice_to_gcode(design, settings, out, jobs=jobs, thumbnails=thumbnails)
     program = read_gcode(two)
     assert len(program.layer_z) > 30
-    assert one.read_bytes() == two.read_bytes()
+    assert one.read_bytes() == two.read_bytes() == three.read_bytes()
+    assert pooled.count("_section_task") == (1 if strategy == "1" else 0)
 
 
 @pytest.mark.parametrize("jobs", [1, 2])
