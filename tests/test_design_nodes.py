@@ -269,3 +269,18 @@ def test_sections_of_many_heights_equal_one_section_each_and_mesh_planes_are_cut
     assert [g.wkb for g in together] == [g.wkb for g in one_each]
     assert together[4].is_empty and not together[0].is_empty
     assert all(isinstance(g, shapely.MultiPolygon) and g.is_valid for g in together)
+
+
+def test_transforms_map_all_heights_at_once_as_shapely_maps_each_section():
+    """An affine node maps its child's sections in one call, with the arithmetic of
+    ``shapely.affinity.affine_transform`` (bit for bit)."""
+    child = api.intersection(api.sphere(10), api.union(api.cube(12), api.translate((4, 0, 0), api.cylinder(3, 30))))
+    for node in (api.rotate((0, 0, 33), child), api.scale((1.3, 0.7, 2), child), api.translate((3.1, -2.7, 5), child)):
+        zs = [-24.0, -9.3, 0.0, 4.99, 5.0, 12.2, 14.9, 40.0]
+        m, offset = node.matrix, node.offset
+        plane_map = [m[0, 0], m[0, 1], m[1, 0], m[1, 1], offset[0], offset[1]]
+        inner = api.design(child).sections([(z - offset[2]) / m[2, 2] for z in zs], 0.3 / max(np.abs(np.linalg.eigvals(m))))
+        expected = [g if g.is_empty else shapely.affinity.affine_transform(g, plane_map) for g in inner]
+        mapped = api.design(node).sections(zs, 0.3)
+        assert sum(not g.is_empty for g in mapped) >= 3
+        assert [g.wkb for g in mapped] == [g.wkb for g in expected]

@@ -34,7 +34,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
-import shapely.affinity
 
 from fgslice.design.base import Design, Material
 from fgslice.errors import DesignError, FieldError, FgsliceError
@@ -155,10 +154,20 @@ def _segments(radius: float, spacing: float) -> int:
     return int(min(4096, max(96, math.ceil(math.pi / math.acos(1.0 - tol / radius)))))
 
 
+@functools.lru_cache(maxsize=64)
+def _unit_circle(segments: int) -> tuple[np.ndarray, np.ndarray]:
+    """Cosines and sines of ``segments`` angles evenly spaced from 0 (read-only): the
+    sections of a sphere or cone at many heights share them."""
+    t = np.linspace(0.0, 2.0 * np.pi, segments, endpoint=False)
+    cos, sin = np.cos(t), np.sin(t)
+    cos.flags.writeable = sin.flags.writeable = False
+    return cos, sin
+
+
 def _circle(cx: float, cy: float, radius: float, spacing: float) -> shapely.Polygon:
     """A polygon inscribed in the circle (vertices on the circle)."""
-    t = np.linspace(0.0, 2.0 * np.pi, _segments(radius, spacing), endpoint=False)
-    return shapely.Polygon(np.column_stack([cx + radius * np.cos(t), cy + radius * np.sin(t)]))
+    cos, sin = _unit_circle(_segments(radius, spacing))
+    return shapely.Polygon(np.column_stack([cx + radius * cos, cy + radius * sin]))
 
 
 def as_multipolygon(geom: shapely.Geometry) -> shapely.MultiPolygon:
@@ -480,7 +489,7 @@ class Union(Node):
         return np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)
 
     def _sections(self, zs, spacing):
-        return [shapely.union_all(parts) for parts in zip(*(c.sections(zs, spacing) for c in self.children))]
+        return list(shapely.union_all(np.array([c.sections(zs, spacing) for c in self.children], dtype=object), axis=0))
 
     def raw(self, x, y, z, ctx, columns):
         return _union_raw(self.children, x, y, z, ctx, columns)
@@ -507,7 +516,8 @@ class Intersection(Node):
         return np.max([b[0] for b in boxes], axis=0), np.min([b[1] for b in boxes], axis=0)
 
     def _sections(self, zs, spacing):
-        return [functools.reduce(shapely.intersection, parts) for parts in zip(*(c.sections(zs, spacing) for c in self.children))]
+        parts = [np.array(c.sections(zs, spacing), dtype=object) for c in self.children]
+        return list(functools.reduce(shapely.intersection, parts))
 
 
 class Difference(Node):
@@ -582,8 +592,14 @@ class Affine(Node):
         if m[0, 2] != 0 or m[1, 2] != 0 or m[2, 0] != 0 or m[2, 1] != 0:
             return [sampled_section(self, z, spacing) for z in zs]
         children = self._body.sections([(z - self.offset[2]) / m[2, 2] for z in zs], spacing / float(self._stretch.max()))
-        plane_map = [m[0, 0], m[0, 1], m[1, 0], m[1, 1], self.offset[0], self.offset[1]]
-        return [child if child.is_empty else shapely.affinity.affine_transform(child, plane_map) for child in children]
+        (a, b), (d, e) = m[:2, :2]
+        xoff, yoff = self.offset[:2]
+
+        def plane_map(q: np.ndarray) -> np.ndarray:  # shapely.affinity.affine_transform's arithmetic
+            x, y = q.T
+            return np.stack([a * x + b * y + xoff, d * x + e * y + yoff]).T
+
+        return list(shapely.transform(np.array(children, dtype=object), plane_map))
 
     def raw(self, x, y, z, ctx, columns):
         if self._body.coordinate_free:
