@@ -113,7 +113,7 @@ def test_a_probed_map_of_costly_items_gives_all_but_the_first_to_the_workers():
     assert results[0][1] == os.getpid() and os.getpid() not in {pid for _, pid in results[1:]}
 
 
-def test_a_probe_needs_workers_to_choose_between():
+def test_a_probed_map_with_one_job_yields_each_item_once_here():
     results = list(map_ordered(square_and_pid, 0, range(5), jobs=1, probe=True))
     assert results == [(i * i, os.getpid()) for i in range(5)]
 

@@ -131,7 +131,7 @@ def test_parallel_output_of_a_mesh_is_byte_identical(tmp_path, monkeypatch, stra
     one, two = tmp_path / "one.gcode", tmp_path / "two.gcode"
     # a design loaded afresh for each slice: neither finds tables the other built
     three = tmp_path / "three.gcode"
-    for out, jobs, serial_work_s in ((one, 1, None), (two, 2, 60.0), (three, 2, 0.0)):
+    for out, jobs, serial_work_s in ((one, 1, 60.0), (two, 2, 60.0), (three, 2, 0.0)):
         monkeypatch.setattr(executor, "SERIAL_WORK_S", serial_work_s)
         design = api.design(api.fgrade(["x/40 + 0.5", "0.5 - x/40"], ["blue", "yellow"], api.mesh(path)))
         thumbnails = (lambda d=design: render_thumbnails(d, settings)) if jobs > 1 else tuple(render_thumbnails(design, settings))

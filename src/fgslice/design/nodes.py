@@ -157,7 +157,7 @@ def _segments(radius: float, spacing: float) -> int:
 @functools.lru_cache(maxsize=64)
 def _unit_circle(segments: int) -> tuple[np.ndarray, np.ndarray]:
     """Cosines and sines of ``segments`` angles evenly spaced from 0 (read-only): the
-    sections of a sphere or cone at many heights share them."""
+    sections of a sphere, cylinder or strut at many heights share them."""
     t = np.linspace(0.0, 2.0 * np.pi, segments, endpoint=False)
     cos, sin = np.cos(t), np.sin(t)
     cos.flags.writeable = sin.flags.writeable = False
