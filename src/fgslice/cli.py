@@ -7,6 +7,7 @@ no partial output file.
 
 from __future__ import annotations
 
+import importlib
 import json
 import os
 import sys
@@ -373,8 +374,17 @@ def run() -> None:
     cProfile``, coverage), so that it can save its data; an unexpected exception also
     propagates as usual (traceback, normal exit). The process keeps the memory it
     frees for reuse (:func:`fgslice.heap.retain_freed_memory`), as its workers do.
+
+    numpy is imported first, here at the bottom of the call stack. CPython keeps the
+    frames of Python calls in chunks of 16 KiB, mapping one when a call does not fit in
+    the current chunk and unmapping it when that call returns. numpy's import builds
+    its typing aliases (``numpy._typing``) in thousands of short nested calls; imported
+    from within a command, some thirty frames deeper, they crossed a chunk boundary
+    again and again: 800-1800 mmap/munmap pairs and 35-45 ms on every command (``strace``).
+    From here they stay in the first chunk: 12-15 munmaps in a whole slice.
     """
     retain_freed_memory()
+    importlib.import_module("numpy")
     if sys.getprofile() is not None or sys.gettrace() is not None:
         main()
         return
