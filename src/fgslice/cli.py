@@ -381,7 +381,9 @@ def run() -> None:
     its typing aliases (``numpy._typing``) in thousands of short nested calls; imported
     from within a command, some thirty frames deeper, they crossed a chunk boundary
     again and again: 800-1800 mmap/munmap pairs and 35-45 ms on every command (``strace``).
-    From here they stay in the first chunk: 12-15 munmaps in a whole slice.
+    From here they stay in the first chunk, which is never unmapped: slicing the vase,
+    the palette or the Benchy makes 12-15 munmaps in all. (Newer CPython releases keep
+    a spare chunk instead, python/cpython#142183.)
     """
     retain_freed_memory()
     importlib.import_module("numpy")
