@@ -7,7 +7,6 @@ no partial output file.
 
 from __future__ import annotations
 
-import importlib
 import json
 import os
 import sys
@@ -375,18 +374,21 @@ def run() -> None:
     propagates as usual (traceback, normal exit). The process keeps the memory it
     frees for reuse (:func:`fgslice.heap.retain_freed_memory`), as its workers do.
 
-    numpy is imported first, here at the bottom of the call stack. CPython keeps the
-    frames of Python calls in chunks of 16 KiB, mapping one when a call does not fit in
-    the current chunk and unmapping it when that call returns. numpy's import builds
-    its typing aliases (``numpy._typing``) in thousands of short nested calls; imported
-    from within a command, some thirty frames deeper, they crossed a chunk boundary
-    again and again: 800-1800 mmap/munmap pairs and 35-45 ms on every command (``strace``).
-    From here they stay in the first chunk, which is never unmapped: slicing the vase,
-    the palette or the Benchy makes 12-15 munmaps in all. (Newer CPython releases keep
-    a spare chunk instead, python/cpython#142183.)
+    When a command is named, numpy is imported first, here at the bottom of the call
+    stack (``fgslice --help`` and ``--version`` alone do without it: 45 ms instead of
+    85 ms). CPython keeps the frames of Python calls in chunks of 16 KiB, mapping one
+    when a call does not fit in the current chunk and unmapping it when that call
+    returns. numpy's import builds its typing aliases (``numpy._typing``) in thousands
+    of short nested calls; imported from within a command, some thirty frames deeper,
+    they crossed a chunk boundary again and again: 800-1800 mmap/munmap pairs and
+    35-45 ms on every command (``strace``). From here they stay in the first chunk,
+    which is never unmapped: slicing the vase, the palette or the Benchy makes 12-15
+    munmaps in all. (Newer CPython releases keep a spare chunk instead,
+    python/cpython#142183.)
     """
     retain_freed_memory()
-    importlib.import_module("numpy")
+    if any(arg in main.commands for arg in sys.argv[1:]):
+        import numpy  # noqa: F401 - imported here for where it happens (see above)
     if sys.getprofile() is not None or sys.gettrace() is not None:
         main()
         return
