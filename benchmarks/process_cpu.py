@@ -51,7 +51,8 @@ ROLES = {"_verify_written": "verifier", "_render_thumbnails": "thumbnails"}
 
 def child(record_path: str, argv: list[str]) -> None:
     """Run ``fgslice`` with ``argv``, its stages timed; each process appends one JSON line
-    to ``record_path`` at its exit."""
+    to ``record_path`` at its exit. The stages' modules, numpy with them, are imported
+    before the command runs, as :func:`fgslice.cli.run` imports numpy."""
     started = time.perf_counter()
     import functools
     import importlib
@@ -93,18 +94,19 @@ def child(record_path: str, argv: list[str]) -> None:
         with open(record_path, "a") as out:
             out.write(line + "\n")
 
-    def keep_only_this_process(role: str) -> None:
+    def record_this_process(role: str) -> None:
+        """Drop the figures inherited from the parent; report this process's at its exit."""
         stages.clear()
         multiprocessing.util.Finalize(None, report, args=(role,), exitpriority=100)
 
     init_worker, consume = executor._init_worker, executor._consume
 
     def init_timed_worker(*args):
-        keep_only_this_process("worker")
+        record_this_process("worker")
         init_worker(*args)
 
     def consume_timed(fn, *args):
-        keep_only_this_process(ROLES.get(fn.__name__, fn.__name__))
+        record_this_process(ROLES.get(fn.__name__, fn.__name__))
         consume(fn, *args)
 
     executor._init_worker, executor._consume = init_timed_worker, consume_timed

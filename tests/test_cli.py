@@ -268,6 +268,6 @@ def test_commands_import_numpy_first_and_help_does_without_it(design):
     for args in (("--version",), ("--help",)):
         assert not [name for _, name in _imports_of_program(*args) if name.split(".")[0] == "numpy"]
     imports = _imports_of_program("check", design)
-    numpy = [depth for depth, name in imports if name == "numpy"]
-    assert numpy == [0]
-    assert [name for _, name in imports].index("numpy") < [name for _, name in imports].index("fgslice.design")
+    assert [depth for depth, name in imports if name == "numpy"] == [0]
+    names = [name for _, name in imports]
+    assert names.index("numpy") < names.index("fgslice.design")
