@@ -48,6 +48,9 @@ with one process (``verify_gcode``) and with workers (``_verify_written``)."""
 ROLES = {"_verify_written": "verifier", "_render_thumbnails": "thumbnails"}
 """Consumer processes by the function they run (``executor.Consumer``)."""
 
+ROLE_ORDER = ("parent", "worker", "verifier", "thumbnails")
+"""The order in which the roles of processes are printed."""
+
 
 def child(record_path: str, argv: list[str]) -> None:
     """Run ``fgslice`` with ``argv``, its stages timed; each process appends one JSON line
@@ -127,7 +130,7 @@ def run_once(row: run_all.Row, jobs: int, workdir: Path) -> list[dict]:
     records = workdir / f"records-{jobs}.jsonl"
     records.unlink(missing_ok=True)
     out = workdir / f"{row.name}-{jobs}.gcode"
-    argv = ["slice", str(row.design), "-o", str(out), "--jobs", str(jobs), *row.args]
+    argv = run_all.fgslice_cmd(row.design, row.args, out, jobs)[3:]  # run_all.py's, after "python -m fgslice.cli"
     done = subprocess.run([sys.executable, __file__, "--child", str(records), "--", *argv],
                           cwd=run_all.ROOT, capture_output=True, text=True)
     if done.returncode != 0:
@@ -136,8 +139,8 @@ def run_once(row: run_all.Row, jobs: int, workdir: Path) -> list[dict]:
 
 
 def summarize(runs: list[list[dict]]) -> dict:
-    """Medians over ``runs``: CPU per role (in all, and outside the timed stages), and per stage (over all processes) CPU, wall,
-    calls, first start and last end."""
+    """Medians over ``runs``: CPU per role (in all, and outside the timed stages), and per
+    stage (over all processes) CPU, wall, calls, first start and last end."""
     def median(values):
         return statistics.median(values) if values else 0.0
 
@@ -152,8 +155,8 @@ def summarize(runs: list[list[dict]]) -> dict:
         return roles, outside, stages
 
     parsed = [per_run(run) for run in runs]
-    roles = sorted({role for r, _, _ in parsed for role in r}, key=lambda r: ("parent", "worker", "verifier").index(r)
-                   if r in ("parent", "worker", "verifier") else 9)
+    roles = sorted({role for r, _, _ in parsed for role in r},
+                   key=lambda role: ROLE_ORDER.index(role) if role in ROLE_ORDER else len(ROLE_ORDER))
     labels = sorted({label for _, _, s in parsed for label in s}, key=[s[0] for s in STAGES].index)
     return {
         "roles": {role: median([r.get(role, 0.0) for r, _, _ in parsed]) for role in roles},

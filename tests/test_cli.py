@@ -184,14 +184,15 @@ def test_sweep_writes_one_slice_per_combination_and_a_summary(design, tmp_path):
     assert result.exit_code == 2 and "comma-separated" in result.output
 
 
-def _program(*args):
+def _program(*args, python_options=()):
     """The real program (``python -m fgslice.cli``, as the console script runs it), with
-    stdout and stderr piped, so that only what was flushed before it exited arrives."""
+    stdout and stderr piped, so that only what was flushed before it exited arrives;
+    ``python_options`` go to the interpreter."""
     import subprocess
     import sys
 
-    return subprocess.run([sys.executable, "-m", "fgslice.cli", *map(str, args)], capture_output=True, text=True,
-                          timeout=120)
+    return subprocess.run([sys.executable, *python_options, "-m", "fgslice.cli", *map(str, args)],
+                          capture_output=True, text=True, timeout=120)
 
 
 def test_program_exits_with_everything_written_and_flushed(design, tmp_path):
@@ -246,11 +247,7 @@ def _imports_of_program(*args) -> list[tuple[int, str]]:
     """``(nesting depth, module)`` of every import the program makes, in the order they
     finish (``python -X importtime``: depth 0 is an import made by the program's own code
     rather than by another module's import)."""
-    import subprocess
-    import sys
-
-    done = subprocess.run([sys.executable, "-X", "importtime", "-m", "fgslice.cli", *map(str, args)],
-                          capture_output=True, text=True, timeout=120)
+    done = _program(*args, python_options=("-X", "importtime"))
     assert done.returncode == 0, done.stderr
     imports = []
     for line in done.stderr.splitlines():
