@@ -143,3 +143,29 @@ def test_text_that_is_not_gcode_is_refused(tmp_path):
     binary.write_bytes(b"GCDE\x00\x01\x02")
     with pytest.raises(GcodeError, match="binary"):
         render_layer(binary, 0, tmp_path / "x.png")
+
+
+@pytest.mark.parametrize("size", [(1200, 900), (640, 480)])
+@pytest.mark.parametrize("profile", ["marlin-mixing", "foam-lwpla"])
+def test_the_key_fits_in_the_picture_beside_the_panels(tmp_path, profile, size):
+    """Long mixture labels ("red 16.7% / green 16.7% / blue 66.7%") and the colorbar stay
+    inside the image, right of the toolpath and design panels."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    if profile == "foam-lwpla":
+        grade, materials, sets = ["x/40 + 0.5", "0.5 - x/40"], ["pla", "lwpla"], {"colors": "6"}
+    else:
+        grade, materials = ["x/80 + 0.25", "0.25", "0.5 - x/80"], ["red", "green", "blue"]
+        sets = {"channels": "3", "colors": "9"}
+    design = api.design(api.fgrade(grade, materials, api.rectprism(40, 20, 1)))
+    out = tmp_path / "long.gcode"
+    slice_to_gcode(design, load_settings(profile, {"skirt_loops": "0", "thumbnails": "", **sets}), out, jobs=1)
+    fig, ax = layer_figure(out, 2, design=design, size=size)
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    keys = [legend.get_window_extent(renderer) for legend in fig.legends]
+    colorbars = [a for a in fig.axes if a.get_ylabel() == "nozzle target (degC)"]
+    keys += [a.get_tightbbox(renderer) for a in colorbars]
+    assert len(keys) == 1
+    panels_right = max(a.get_window_extent(renderer).x1 for a in fig.axes if a not in colorbars)
+    assert panels_right <= keys[0].x0 and keys[0].x1 <= size[0]
+    assert 0 <= keys[0].y0 and keys[0].y1 <= size[1]

@@ -26,6 +26,7 @@ import matplotlib
 matplotlib.use("Agg")
 
 import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import LineCollection
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
@@ -51,7 +52,9 @@ BACKGROUND = "white"
 FIGURE_COLOR = "#f2f2f2"
 TRAVEL_COLOR = "#555555"
 DEFAULT_WIDTH_MM = 0.4
-MARGIN_PX = {"left": 60, "bottom": 46, "top": 36, "gap": 60, "legend": 250}
+MARGIN_PX = {"left": 60, "bottom": 46, "top": 36, "gap": 60}
+LEGEND_PAD_PX = 10
+COLORBAR_PX = 90
 MAX_LEGEND = 40
 MAX_FIELD_PX = 900
 
@@ -156,15 +159,23 @@ def _runs(program, moves: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
     return [np.vstack([s[None, :], e]) for s, e in zip(starts, ends)], moves[firsts]
 
 
-def draw_layer(ax, printout: Printout, colors: StateColors, layer: int, px_per_mm: float,
-               *, show_travel: bool = False, default_width: float = DEFAULT_WIDTH_MM) -> np.ndarray:
-    """Draw ``layer``'s extrusions (real width) on ``ax`` laid out at ``px_per_mm``.
+def _extrusions(program, layer: int) -> np.ndarray:
+    """Indices of the extrusion moves (E > 0, some XY length) of ``layer``."""
+    return np.flatnonzero((program.layer == layer) & (program.e > 0) & (program.length > 0))
 
-    Returns the legend keys (``colors.key``) of the states drawn.
-    """
+
+def layer_keys(program, colors: StateColors, layer: int) -> np.ndarray:
+    """The legend keys (``colors.key``) of the states ``layer``'s extrusions are printed in."""
+    return np.unique(colors.key[program.state[_extrusions(program, layer)]])
+
+
+def draw_layer(ax, printout: Printout, colors: StateColors, layer: int, px_per_mm: float,
+               *, show_travel: bool = False, default_width: float = DEFAULT_WIDTH_MM) -> None:
+    """Draw ``layer``'s extrusions (real width) on ``ax`` laid out at ``px_per_mm``
+    (their states' legend keys: :func:`layer_keys`)."""
     program = printout.program
     on_layer = program.layer == layer
-    moves = np.flatnonzero(on_layer & (program.e > 0) & (program.length > 0))
+    moves = _extrusions(program, layer)
     lines, firsts = _runs(program, moves)
     widths_mm = np.nan_to_num(program.width[firsts], nan=default_width)
     if show_travel:
@@ -182,21 +193,23 @@ def draw_layer(ax, printout: Printout, colors: StateColors, layer: int, px_per_m
             antialiased=True,
             zorder=2,
         ))
-    return np.unique(colors.key[program.state[moves]])
 
 
-def _legend(fig: Figure, colors: StateColors, keys: np.ndarray, size: tuple[int, int], box: tuple[float, float, float, float]) -> None:
-    """The key of the colors drawn, in the pixel ``box`` right of the panels."""
+def _legend(fig: Figure, colors: StateColors, keys: np.ndarray, size: tuple[int, int], rows: tuple[float, float]) -> float:
+    """The key of the colors drawn, at the right edge of the picture, in the pixel rows
+    ``(bottom, height)``; returns its width in pixels, for the panels to leave room for it.
+    A list wider than half the picture is set in a smaller font (down to 5 pt)."""
     w, h = size
-    left, bottom, _, height = box
+    bottom, height = rows
+    renderer = FigureCanvasAgg(fig).get_renderer()
     if colors.mode == "temperature":
         from matplotlib import colormaps
         from matplotlib.cm import ScalarMappable
 
-        cax = fig.add_axes(((left + 10) / w, (bottom + 0.1 * height) / h, 18 / w, 0.8 * height / h))
+        cax = fig.add_axes(((w - COLORBAR_PX) / w, (bottom + 0.1 * height) / h, 18 / w, 0.8 * height / h))
         mappable = ScalarMappable(Normalize(*colors.value_range), colormaps[TEMPERATURE_CMAP])
         fig.colorbar(mappable, cax=cax, label="nozzle target (degC)")
-        return
+        return w - cax.get_tightbbox(renderer).x0 + LEGEND_PAD_PX
     known = [int(k) for k in keys if k >= 0 and int(k) in colors.labels]
     if len(known) > MAX_LEGEND:
         known = [known[i] for i in np.linspace(0, len(known) - 1, MAX_LEGEND).round().astype(int)]
@@ -205,10 +218,18 @@ def _legend(fig: Figure, colors: StateColors, keys: np.ndarray, size: tuple[int,
                for k in known]
     if (keys < 0).any():
         handles.append(Patch(facecolor=UNKNOWN_RGBA, edgecolor="#333333", linewidth=0.4, label="no state set"))
-    if handles:
-        fig.legend(handles=handles, loc="upper left", bbox_to_anchor=(left / w, (bottom + height) / h),
-                   fontsize=7 if len(handles) > 16 else 8, frameon=False, title=colors.mode, title_fontsize=8,
-                   handlelength=1.4, labelspacing=0.3)
+    if not handles:
+        return 0.0
+    fontsize = 7 if len(handles) > 16 else 8
+    while True:
+        legend = fig.legend(handles=handles, loc="upper right", bbox_to_anchor=((w - LEGEND_PAD_PX) / w, (bottom + height) / h),
+                            fontsize=fontsize, frameon=False, title=colors.mode, title_fontsize=8,
+                            handlelength=1.4, labelspacing=0.3)
+        width = legend.get_window_extent(renderer).width
+        if width <= w / 2 or fontsize <= 5:
+            return width + 2 * LEGEND_PAD_PX
+        legend.remove()
+        fontsize -= 1
 
 
 def _design_image(design: Design, placement: Placement, bounds: Sequence[float], z: float, shape: tuple[int, int]) -> np.ndarray:
@@ -263,12 +284,14 @@ def layer_figure(source, layer: int, *, design: Design | None = None, placement:
     bounds = extrusion_bounds(program)
     colors = state_colors(printout)
     m = MARGIN_PX
-    box = (m["left"], m["bottom"], w - m["left"] - m["legend"] - 10, h - m["bottom"] - m["top"])
-    layout = plan_layout(bounds, box, 2 if design is not None else 1, m["gap"])
     fig = Figure(figsize=(w / DPI, h / DPI), dpi=DPI, facecolor=FIGURE_COLOR)
+    rows = (m["bottom"], h - m["bottom"] - m["top"])
+    legend_px = _legend(fig, colors, layer_keys(program, colors, layer), size, rows)
+    box = (m["left"], m["bottom"], w - m["left"] - legend_px - LEGEND_PAD_PX, rows[1])
+    layout = plan_layout(bounds, box, 2 if design is not None else 1, m["gap"])
     ax = _axes(fig, layout.panels[0], bounds, size)
     default_width = float(printout.info.settings.get("bead_width", DEFAULT_WIDTH_MM))
-    keys = draw_layer(ax, printout, colors, layer, layout.px_per_mm, show_travel=show_travel, default_width=default_width)
+    draw_layer(ax, printout, colors, layer, layout.px_per_mm, show_travel=show_travel, default_width=default_width)
     ax.set_xlabel("X (mm)", fontsize=8)
     ax.set_ylabel("Y (mm)", fontsize=8)
     z_top, height = layer_z(program, layer)
@@ -284,8 +307,6 @@ def layer_figure(source, layer: int, *, design: Design | None = None, placement:
                    interpolation="nearest", aspect="auto")
         dax.set_xlabel("X (mm)", fontsize=8)
         dax.set_title(f"design field at z = {z_mid:g} mm", fontsize=10)
-    legend_box = (w - m["legend"], m["bottom"], m["legend"] - 10, h - m["bottom"] - m["top"])
-    _legend(fig, colors, keys, size, legend_box)
     return fig, ax
 
 
