@@ -100,6 +100,28 @@ def test_profiles_and_check(design):
     assert "blue" in result.output and "yellow" in result.output
 
 
+def test_profile_keys_show_the_values_the_profile_slices_with(tmp_path):
+    from fgslice.settings import load_settings
+
+    def shown(*args):
+        result = run("profiles", "--keys", *args)
+        assert result.exit_code == 0, result.output
+        return dict(line.split("  # ")[0].split(" = ", 1) for line in result.output.splitlines())
+
+    assert shown()["bed_x"] == repr(load_settings("marlin-mixing").bed_x) == "255.0"
+    toolchanger = shown("--profile", "toolchanger")
+    assert toolchanger["dialect"] == "'toolchanger'" and toolchanger["bed_x"] == "360.0"
+    assert "bed width, mm (default 220.0)" in run("profiles", "--keys", "--profile", "toolchanger").output
+    mine = tmp_path / "mine.toml"
+    mine.write_text('inherits = "toolchanger"\ntool_count = 3\n', encoding="utf-8")
+    values = shown("--profile", mine)
+    settings = load_settings(str(mine))
+    assert values == {name: repr(value) for name, value in settings.as_dict().items()}
+    assert values["tool_count"] == "3" and values["bed_y"] == "360.0" and values["profile_name"] == "'mine'"
+    result = run("profiles", "--keys", "--profile", "nonesuch")
+    assert result.exit_code == 2 and "unknown profile 'nonesuch'" in result.output
+
+
 def test_verify_passes_our_output_and_flags_a_broken_file(design, tmp_path):
     out = tmp_path / "box.gcode"
     assert run("slice", design, "-o", out, "--jobs", "1").exit_code == 0

@@ -179,14 +179,18 @@ def check_command(design, materials):
 
 
 @main.command("profiles")
-@click.option("--keys", is_flag=True, help="List every setting with its default and meaning.")
-def profiles_command(keys):
-    """List the built-in printer profiles (or every setting with --keys)."""
-    from fgslice.settings import builtin_profiles, describe_settings
+@click.option("--keys", is_flag=True, help="List every setting with its value in the profile and its meaning.")
+@click.option("--profile", help="The profile --keys shows: a built-in name or a TOML file (default: marlin-mixing).")
+def profiles_command(keys, profile):
+    """List the built-in printer profiles (or every setting of one with --keys)."""
+    from fgslice.settings import builtin_profiles, describe_settings, load_settings
 
-    if keys:
+    if keys or profile:
+        settings = load_settings(profile)
         for name, default, description in describe_settings():
-            click.echo(f"{name} = {default!r}  # {description}")
+            value = getattr(settings, name)
+            note = "" if value == default else f" (default {default!r})"
+            click.echo(f"{name} = {value!r}  # {description}{note}")
         return
     for name, description in builtin_profiles().items():
         click.echo(f"{name:20s} {description}")
