@@ -328,7 +328,8 @@ def slice_to_gcode(
         if callable(thumbnails):
             thumbnails = thumbnails()
         writer = GcodeWriter(
-            handle, settings, palette, dialect, comments=header, thumbnails=thumbnails, now=stamp or build_time()
+            handle, settings, palette, dialect, comments=header, thumbnails=thumbnails, materials=design.materials,
+            now=stamp or build_time(),
         )
         writer.write_header()
         told = 0  # the file size the verifier was last told

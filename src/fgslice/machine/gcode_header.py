@@ -4,7 +4,8 @@ The header is everything before the first ``;LAYER_CHANGE``: ``; key = value`` c
 (the job's comments such as ``placement_offset`` and ``materials``, then every setting)
 and one ``; color i = label : commands`` line per palette color. The footer is what
 follows the last ``;LAYER_CHANGE``: ``; filament used [mm] = ...``, ``; estimated
-printing time (normal mode) = ...`` and the like.
+printing time (normal mode) = ...`` and the like, then the PrusaSlicer-style settings
+block (:mod:`fgslice.machine.prusa_config`), which is not part of the footer read here.
 
 The first occurrence of a key wins. Values fgslice interprets (offset, palette size,
 temperatures) are validated here; a malformed one is a :class:`GcodeError` naming the
@@ -21,6 +22,7 @@ from dataclasses import dataclass, field
 from fgslice.errors import GcodeError
 
 LAYER_CHANGE = ";LAYER_CHANGE"
+SETTINGS_BLOCK = "; prusaslicer_config = begin"
 _KEY_VALUE = re.compile(r"^;[ \t]*([A-Za-z_][A-Za-z0-9_]*)[ \t]*=[ \t]*(.*?)[ \t\r]*$", re.MULTILINE)
 _COLOR_LINE = re.compile(r"^;[ \t]*color[ \t]+(\d+)[ \t]*=[ \t]*([^:\r\n]*?)[ \t]*(?::[ \t]*([^\r\n]*?))?[ \t\r]*$",
                          re.MULTILINE)
@@ -154,7 +156,8 @@ def read_header(path: str | os.PathLike) -> GcodeHeader:
 
 def read_footer(path: str | os.PathLike) -> dict[str, str]:
     """``; key = value`` comments after the last ``;LAYER_CHANGE`` of a G-code file:
-    ``filament used [mm]``, ``estimated printing time (normal mode)``, ... Only the last
+    ``filament used [mm]``, ``estimated printing time (normal mode)``, ..., up to the
+    PrusaSlicer-style settings block (``; prusaslicer_config = begin``). Only the last
     64 KiB are read (all of them when the last layer is longer); a file that small without
     a layer change has no footer.
 
@@ -171,7 +174,8 @@ def read_footer(path: str | os.PathLike) -> dict[str, str]:
     last = tail.rfind(LAYER_CHANGE)
     if last < 0 and size <= _FOOTER_BYTES:
         return {}
+    block = tail.find(SETTINGS_BLOCK, max(last, 0))
     out: dict[str, str] = {}
-    for key, value in _FOOTER_LINE.findall(tail, max(last, 0)):
+    for key, value in _FOOTER_LINE.findall(tail, max(last, 0), len(tail) if block < 0 else block):
         out.setdefault(key, value)
     return out
