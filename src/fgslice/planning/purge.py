@@ -133,7 +133,7 @@ class PurgeTower:
             )
         hint = "--set purge=false, a smaller palette (--set colors=...), or a smaller melt_volume_mm3"
         if sizer and sizer.model and explain:
-            hint = _fitting_alternatives(part_footprint, changes, n_layers, sizer) + "; or " + hint
+            hint = _fitting_alternatives(part_footprint, changes, n_layers, sizer) + "; or --set purge=false"
         raise SliceError(f"no room on the {bed[0]:g} x {bed[1]:g} mm bed for a {what} beside the part", hint=hint)
 
     @property
@@ -455,7 +455,8 @@ def _fitting_alternatives(part_footprint: shapely.Geometry, changes: int, n_laye
         else:
             high = mid
     if low >= 0:
-        found.append(f"--set colors={sizes[low]} fits at this tolerance rule")
+        rule = "a tenth of its bin" if settings.purge_tolerance == "auto" else f"{tol:.3g}"
+        found.append(f"--set colors={sizes[low]} fits (tolerance {rule})")
     return " or ".join(found) if found else "no purge_tolerance or smaller palette fits"
 
 
