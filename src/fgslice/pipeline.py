@@ -392,7 +392,7 @@ def _simulated_share(output, design: Design, placement, settings: Settings, pale
     from fgslice.analysis.simulate import simulate
 
     result = simulate(FilePath(output), design, placement, settings, palette_size=palette.size)
-    return round(predicted_within_half_bin(result, palette.size), 4)
+    return round(predicted_within_half_bin(result, palette.size), 6)
 
 
 def _prepare_for_workers() -> None:
