@@ -36,6 +36,18 @@ def test_slice_writes_gcode_stats_and_a_summary(design, tmp_path):
     assert sum(float(v) for v in data["extruded_mm3_by_color"].values()) == pytest.approx(data["extruded_mm3"], rel=0.02)
 
 
+def test_slice_summary_gives_the_tower_and_with_model_purges_the_simulated_share(design, tmp_path):
+    out, stats = tmp_path / "box.gcode", tmp_path / "box.json"
+    result = run("slice", design, "-o", out, "--strategy", "1", "--colors", "3", "--set", "purge_size=model",
+                 "--stats", stats, "--jobs", "1")
+    assert result.exit_code == 0, result.output
+    data = json.loads(stats.read_text())
+    summary = result.output.strip().splitlines()[-1]
+    assert f"tower {data['tower_mm3'] / 1000:.2f} cm3 / {data['tower_g']:.1f} g" in summary
+    assert f"({data['simulated_within_half_bin']:.1%} of the part simulated within half a bin)" in summary
+    assert data["tower_mm3"] > data["purge_mm3"] > 0
+
+
 @pytest.mark.parametrize(
     "args, words",
     [

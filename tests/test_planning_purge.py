@@ -119,17 +119,6 @@ def test_tower_is_on_the_bed_clear_of_the_part_and_printed_on_every_layer():
         assert shapely.within(box.exterior, printed.buffer(1e-6))
 
 
-def test_scaled_purges_follow_the_size_of_the_change():
-    settings = Settings(purge_scale_by_change=True, melt_volume_mm3=30.0)
-    tower = PurgeTower.plan(FOOTPRINT, settings, changes_per_layer=4, n_layers=2)
-    full = 30.0 / settings.bead_area
-    records = purges_per_change(insert_purges(iter(layer_plans(2, colors=(0, 2, 3))), tower, settings, PALETTE))
-    lengths = {(a, b): length for _, a, b, length in records if a != b}
-    assert lengths[(None, 0)] == pytest.approx(full, rel=0.05)  # unknown start: a full purge
-    assert lengths[(0, 2)] == pytest.approx(0.5 * full, rel=0.05)
-    assert lengths[(2, 3)] == pytest.approx(0.25 * full, rel=0.05)
-
-
 def test_purge_off_passes_plans_through():
     plans = layer_plans(2)
     settings = Settings(purge=False)

@@ -63,6 +63,20 @@ def test_local_sweep_writes_every_combination(tmp_path, disc, monkeypatch):
     assert all(name in text for name in names)
 
 
+def test_tolerance_sweep_trades_tower_volume_for_predicted_fidelity(tmp_path, disc):
+    rows = run_sweep(disc, tmp_path / "out", colors=[4], strategy=[1], overrides=BASE, jobs=1,
+                     tolerance=[0.0125, 0.1])
+    assert [r["name"] for r in rows] == ["disc_c4_z0_s1_t0.0125", "disc_c4_z0_s1_t0.1"]
+    tight, loose = rows
+    assert (tight["purge_tolerance"], loose["purge_tolerance"]) == (0.0125, 0.1)
+    assert tight["tower_cm3"] > loose["tower_cm3"] > 0
+    assert 1 >= tight["within_half_bin"] >= loose["within_half_bin"] > 0
+    stats = json.loads((tmp_path / "out" / "disc_c4_z0_s1_t0.1.json").read_text())
+    assert stats["simulated_within_half_bin"] == loose["within_half_bin"]
+    assert "in bin" in format_summary(rows) and "in bin" not in format_summary(
+        run_sweep(disc, tmp_path / "plain", colors=[2], strategy=[1], overrides=BASE, jobs=1))
+
+
 @pytest.mark.slow
 def test_dask_sweep_matches_local(tmp_path, disc, monkeypatch, dask_scheduler):
     # set after the cluster started: its workers do not see it, the submitter's stamp is used

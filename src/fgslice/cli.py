@@ -104,9 +104,12 @@ def slice_command(design, output, profile, strategy, colors, layer_height, sets,
         _write_report(report_path, result, settings, loaded)
     for warning in s["warnings"]:
         click.echo(f"warning: {warning}", err=True)
+    tower = f", tower {s['tower_mm3'] / 1000:.2f} cm3 / {s['tower_g']:.1f} g" if s["tower_mm3"] else ""
+    if s["simulated_within_half_bin"] is not None:
+        tower += f" ({s['simulated_within_half_bin']:.1%} of the part simulated within half a bin)"
     click.echo(
         f"{output}: {s['layers']} layers, {s['colors']} colors, {s['extruded_mm3'] / 1000:.2f} cm3, "
-        f"{s['state_changes']} state changes, print {_duration(s['estimated_time_s'])}, "
+        f"{s['state_changes']} state changes{tower}, print {_duration(s['estimated_time_s'])}, "
         f"sliced in {s['elapsed_s']:.2f} s"
     )
 
@@ -341,7 +344,8 @@ def _number_list(kind, text: str) -> list:
 @click.option("--materials", type=click.Path(dir_okay=False, path_type=Path), help="Material library JSON.")
 @click.option("--jobs", type=int, help="Worker processes per slice (default: all cores).")
 @click.option("--scheduler", help="Run each combination as a task on this Dask scheduler.")
-def sweep_command(design, out_dir, colors, zipper, strategy, profile, sets, materials, jobs, scheduler):
+@click.option("--tolerance", "tolerance", help="purge_tolerance values, each sliced with purge_size=model, e.g. 0.00625,0.025.")
+def sweep_command(design, out_dir, colors, zipper, strategy, profile, sets, materials, jobs, scheduler, tolerance):
     """Slice DESIGN for every combination of palette size, zipper width and strategy."""
     from fgslice.settings import parse_overrides
     from fgslice.sweep import format_summary, run_sweep
@@ -350,6 +354,7 @@ def sweep_command(design, out_dir, colors, zipper, strategy, profile, sets, mate
         design, out_dir, colors=_number_list(int, colors), zipper=_number_list(float, zipper),
         strategy=_number_list(int, strategy) if strategy else None, profile=profile,
         overrides=parse_overrides(sets), materials=materials, jobs=jobs, scheduler=scheduler,
+        tolerance=_number_list(float, tolerance) if tolerance else (),
     )
     click.echo(format_summary(rows))
     click.echo(f"{out_dir}: {len(rows)} slices and summary.csv")

@@ -49,6 +49,7 @@ from fgslice.planning.lookahead import apply_lookahead, apply_time_lead
 from fgslice.planning.order import order_layer
 from fgslice.planning.plan import LayerPlan
 from fgslice.planning.purge import PurgeStats, PurgeTower, insert_purges
+from fgslice.planning.purge_size import PurgeSizer
 from fgslice.planning.repeats import RepeatedLayers
 from fgslice.settings import Settings
 from fgslice.slicing.field import BedField
@@ -280,13 +281,14 @@ def slice_to_gcode(
         if callable(thumbnails):
             thumbnails = _start_thumbnails(thumbnails, cleanup) if jobs > 1 or scheduler else tuple(thumbnails())
         tower = None
+        sizer = PurgeSizer.of(settings, palette.centers)
         if settings.strategy == 1:
             batches = [range(i, min(i + SECTION_BATCH, len(layers))) for i in range(0, len(layers), SECTION_BATCH)]
             job.outlines = list(itertools.chain.from_iterable(
                 map_ordered(_section_task, job, batches, jobs=jobs, scheduler=scheduler, probe=True)))
             if settings.purge and palette.size > 1:
                 changes = _max_colors_per_layer(job, jobs, scheduler)
-                tower = PurgeTower.plan(_part_footprint(job), settings, max(changes, 1), len(layers))
+                tower = PurgeTower.plan(_part_footprint(job), settings, max(changes, 1), len(layers), sizer)
                 job.start_xy = np.array([(tower.x0 + tower.x1) / 2, (tower.y0 + tower.y1) / 2])
 
         short_records: list[strategy1.ShortPieces] = []
@@ -303,7 +305,7 @@ def slice_to_gcode(
                 yield result.plan
 
         purge_stats = PurgeStats()
-        stream = insert_purges(plans(), tower, settings, palette, purge_stats) if tower else plans()
+        stream = insert_purges(plans(), tower, settings, palette, purge_stats, sizer) if tower else plans()
         if settings.dialect == "temperature" and settings.temperature_lead_s > 0:
             stream = apply_time_lead(stream, settings.temperature_lead_s, _speed_of(settings))
         elif settings.lookahead_distance > 0:
@@ -370,12 +372,28 @@ def slice_to_gcode(
             "purge_mm3": round(purge_stats.purge_mm3, 3) if tower else 0.0,
             "purge_g": round(purge_stats.purge_g, 4) if tower else 0.0,
             "purge_waste_share": round(purge_stats.waste_share, 4) if tower else 0.0,
+            "tower_mm3": round(purge_stats.tower_mm3, 3) if tower else 0.0,
+            "tower_g": round(purge_stats.tower_g, 4) if tower else 0.0,
+            "purge_tolerance": round(sizer.tolerance, 6) if tower and sizer.model else None,
             "lookahead_mm": round(settings.lookahead_distance, 3),
             "placement_offset": list(placement.offset),
             "elapsed_s": round(time.perf_counter() - started, 3),
         }
     )
+    stats["simulated_within_half_bin"] = (
+        _simulated_share(output, design, placement, settings, palette) if tower and sizer.model else None
+    )
     return SliceResult(output=FilePath(output), stats=stats)
+
+
+def _simulated_share(output, design: Design, placement, settings: Settings, palette: Palette) -> float:
+    """Share of the part the dead-volume model predicts within half a palette bin of the
+    design, simulating the written G-code (:mod:`fgslice.analysis.simulate`)."""
+    from fgslice.analysis.fidelity import predicted_within_half_bin
+    from fgslice.analysis.simulate import simulate
+
+    result = simulate(FilePath(output), design, placement, settings, palette_size=palette.size)
+    return round(predicted_within_half_bin(result, palette.size), 6)
 
 
 def _prepare_for_workers() -> None:

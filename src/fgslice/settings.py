@@ -80,7 +80,8 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     # -- purge and dead volume -------------------------------------------------------
     purge: Annotated[bool, Meta(description="strategy 1 purge tower on state changes")] = True
     melt_volume_mm3: Annotated[float, Meta(ge=0, le=10000, description="melt chamber volume V_melt, mm^3")] = 68.5
-    purge_scale_by_change: Annotated[bool, Meta(description="scale purge by the size of the state change")] = False
+    purge_size: Annotated[Literal["full", "model"], Meta(description="purge length: full (V_melt every change) or model (what the dead-volume model says the change needs to reach purge_tolerance)")] = "full"
+    purge_tolerance: Annotated[float | Literal["auto"], Meta(description="purge_size = model: composition distance (0-1; degC for the temperature dialect) left after a purge; 'auto' is a tenth of a palette bin")] = "auto"
     purge_tower_x: Annotated[float | None, Meta(description="tower center X (bed frame), mm; None: automatic")] = None
     purge_tower_y: Annotated[float | None, Meta(description="tower center Y (bed frame), mm; None: automatic")] = None
     lookahead_mm: Annotated[float | Literal["auto"], Meta(description="issue state changes this far ahead (extruded path length), mm; 'auto' derives it from melt_volume_mm3")] = 0.0
@@ -146,6 +147,8 @@ class Settings(_Fields, kw_only=True, frozen=True, forbid_unknown_fields=True):
             )
         if self.lookahead_mm != "auto" and self.lookahead_mm < 0:
             raise ValueError("lookahead_mm must be >= 0 or 'auto'")
+        if self.purge_tolerance != "auto" and self.purge_tolerance <= 0:
+            raise ValueError("purge_tolerance must be > 0 or 'auto'")
 
     def as_dict(self) -> dict[str, Any]:
         """Every setting by name, in declaration order."""
@@ -264,10 +267,17 @@ def _expected(key: str) -> str:
     return ", ".join([text] + [f"{word} {getattr(meta, name)}" for name, word in limits if getattr(meta, name) is not None])
 
 
+#: Settings that were removed, with what replaces them.
+RETIRED = {
+    "purge_scale_by_change": "it was removed: purges scaled by the change left the vase 8% within half a bin; "
+    "--set purge_size=model sizes each purge by what the change needs",
+}
+
+
 def _unknown_key(key: str, origin: str) -> SettingsError:
     return SettingsError(
         f"unknown setting '{key}' ({origin})",
-        hint=did_you_mean(key, SETTING_NAMES) or "run 'fgslice profiles --keys' for the list",
+        hint=RETIRED.get(key) or did_you_mean(key, SETTING_NAMES) or "run 'fgslice profiles --keys' for the list",
     )
 
 

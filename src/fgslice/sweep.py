@@ -4,7 +4,13 @@ and strategy, as the paper's experiments do (palette object at 4..48 colors, zip
 For each combination ``<stem>_c<colors>_z<zipper>_s<strategy>`` the sweep writes
 ``<name>.gcode`` and ``<name>.json`` (the slicer's statistics) into the output folder,
 then ``summary.csv``: one row per combination with layers, extruded volume (cm^3), purge
-volume (cm^3), state changes, estimated print time (s) and slicing time (s).
+volume (cm^3), state changes, estimated print time (s) and slicing time (s), then the
+purge tolerance, tower volume (cm^3) and the share of the part the dead-volume model
+predicts within half a palette bin (the last only for purges sized by the model).
+
+A sweep over ``purge_tolerance`` (``tolerance``) slices every combination with
+``purge_size = model`` at each tolerance, named ``..._t<tolerance>``: its table is the
+tower's volume against the predicted fidelity.
 
 Zipper widths apply to strategy 1 only (strategy 2 has no walls to zip), so strategy 2
 combinations are sliced once per palette size with zipper 0.
@@ -36,7 +42,7 @@ from fgslice.settings import Settings, load_settings
 
 SUMMARY_COLUMNS = (
     "name", "strategy", "colors", "zipper", "layers", "extruded_cm3", "purge_cm3",
-    "state_changes", "estimated_time_s", "slicing_s",
+    "state_changes", "estimated_time_s", "slicing_s", "purge_tolerance", "tower_cm3", "within_half_bin",
 )
 """Columns of ``summary.csv`` and of the dicts :func:`run_sweep` returns (volumes cm^3, times s)."""
 
@@ -72,6 +78,7 @@ def combinations(
     strategy: Sequence[int] | None = None,
     profile: str | None = None,
     overrides: dict[str, Any] | None = None,
+    tolerance: Sequence[float] = (),
 ) -> list[Combination]:
     """Resolve every combination's settings (all are validated before anything is sliced).
 
@@ -91,8 +98,12 @@ def combinations(
     for s in strategies:
         for n in colors:
             for z in zipper if s == 1 else (0.0,):
-                settings = load_settings(profile, {**(overrides or {}), "strategy": s, "colors": n, "zipper": z})
-                result.append(Combination(f"{stem}_c{settings.colors}_z{settings.zipper:g}_s{settings.strategy}", settings))
+                values = {**(overrides or {}), "strategy": s, "colors": n, "zipper": z}
+                for t in tolerance or (None,):
+                    extra = {} if t is None else {"purge_size": "model", "purge_tolerance": t}
+                    settings = load_settings(profile, {**values, **extra})
+                    name = f"{stem}_c{settings.colors}_z{settings.zipper:g}_s{settings.strategy}"
+                    result.append(Combination(name if t is None else f"{name}_t{t:g}", settings))
     names = [c.name for c in result]
     duplicates = sorted({n for n in names if names.count(n) > 1})
     if duplicates:
@@ -121,6 +132,9 @@ def _slice_combination(job: _SweepJob, combination: Combination) -> dict:
         "state_changes": s["state_changes"],
         "estimated_time_s": round(s["estimated_time_s"], 1),
         "slicing_s": s["elapsed_s"],
+        "purge_tolerance": s["purge_tolerance"],
+        "tower_cm3": round(s["tower_mm3"] / 1000, 3),
+        "within_half_bin": s["simulated_within_half_bin"],
     }
 
 
@@ -137,6 +151,7 @@ def run_sweep(
     jobs: int | None = None,
     scheduler: str | None = None,
     progress: Callable[[dict], None] | None = None,
+    tolerance: Sequence[float] = (),
 ) -> list[dict]:
     """Slice ``design_path`` for every combination and write the G-code, statistics and
     ``summary.csv`` into ``out_dir`` (created if missing).
@@ -153,10 +168,12 @@ def run_sweep(
         jobs: worker processes per combination when running locally (default: all cores).
         scheduler: a Dask scheduler address; each combination becomes one task there.
         progress: called with each combination's summary row as it finishes.
+        tolerance: ``purge_tolerance`` values to slice each combination at with
+            ``purge_size = model`` (empty: the settings' purges).
 
     Returns:
         One dict per combination, keys :data:`SUMMARY_COLUMNS`, in sweep order
-        (strategy, then colors, then zipper).
+        (strategy, then colors, then zipper, then tolerance).
 
     Raises:
         FgsliceError: bad settings or design, an unwritable output, any slicing refusal.
@@ -164,7 +181,7 @@ def run_sweep(
     design_path = Path(design_path)
     out_dir = Path(out_dir)
     todo = combinations(design_path.stem, colors=colors, zipper=zipper, strategy=strategy,
-                        profile=profile, overrides=overrides)
+                        profile=profile, overrides=overrides, tolerance=tolerance)
     out_dir.mkdir(parents=True, exist_ok=True)
     for combination in todo:
         for suffix in (".gcode", ".json"):
@@ -190,13 +207,17 @@ def run_sweep(
 
 
 def format_summary(rows: Sequence[dict]) -> str:
-    """The summary rows as an aligned text table (cm^3, s)."""
+    """The summary rows as an aligned text table (cm^3, s); with the tower's volume and the
+    predicted share within half a bin when some purges were sized by the model."""
+    modelled = any(r["within_half_bin"] is not None for r in rows)
     header = (f"{'combination':32s} {'layers':>6s} {'cm3':>9s} {'purge cm3':>9s} {'changes':>7s} "
-              f"{'print h':>8s} {'slice s':>8s}")
+              f"{'print h':>8s} {'slice s':>8s}" + (f" {'tower cm3':>9s} {'in bin':>7s}" if modelled else ""))
     lines = [header, "-" * len(header)]
     for r in rows:
+        share = "" if r["within_half_bin"] is None else f"{r['within_half_bin']:.1%}"
         lines.append(
             f"{r['name']:32s} {r['layers']:6d} {r['extruded_cm3']:9.2f} {r['purge_cm3']:9.2f} "
             f"{r['state_changes']:7d} {r['estimated_time_s'] / 3600:8.2f} {r['slicing_s']:8.2f}"
+            + (f" {r['tower_cm3']:9.2f} {share:>7s}" if modelled else "")
         )
     return "\n".join(lines)

@@ -65,6 +65,22 @@ def composition_error(deposited: np.ndarray, designed: np.ndarray) -> np.ndarray
     return 0.5 * np.sum(np.abs(np.asarray(deposited) - np.asarray(designed)), axis=-1)
 
 
+def within_half_bin(error: np.ndarray, weights: np.ndarray, bin_size: float) -> float:
+    """Share of the total ``weights`` whose composition ``error`` is at most half of
+    ``bin_size`` (0-1)."""
+    return float(weights[error <= bin_size / 2 + 1e-12].sum() / weights.sum())
+
+
+def predicted_within_half_bin(result: SimulationResult, palette_size: int) -> float:
+    """Share of a simulation's part volume deposited within half a palette bin of the
+    design (the ``within_half_bin`` of :func:`fidelity`, without computing colors)."""
+    part = result.part
+    if not part.any():
+        raise SettingsError("no extrusion inside the part to measure", hint="check the design and the placement offset")
+    error = composition_error(result.deposited[part], result.designed[part])
+    return within_half_bin(error, result.volume[part], palette_bin_size(palette_size, len(result.materials)))
+
+
 def weighted_quantile(values: np.ndarray, weights: np.ndarray, q: float) -> float:
     """The value below which a share ``q`` (0-1) of the total weight lies."""
     order = np.argsort(values)
@@ -131,7 +147,7 @@ def fidelity_of(
     total = float(weights.sum())
     delta_e = composition_delta_e(deposited, designed, materials)
     bin_size = palette_bin_size(palette_size, len(materials)) if palette_size else None
-    within = float(weights[error <= bin_size / 2 + 1e-12].sum() / total) if bin_size else None
+    within = within_half_bin(error, weights, bin_size) if bin_size else None
     return FidelityReport(
         segments=len(weights),
         volume_mm3=total,

@@ -9,12 +9,12 @@ on a tower beside the part, with the capsule model of Appendix A::
 
     L = V_melt / (h (w - h) + pi h^2 / 4)
 
-With ``purge_scale_by_change`` the length is ``L * max_i |f_i(new) - f_i(old)|`` over the
-two states' palette centers (a change between neighbouring colors of a 16-color palette
-purges 1/16 of ``L``); the first change of a print (old state unknown) purges ``L``.
+With ``purge_size = model`` each change purges what the dead-volume model says it needs
+(:mod:`fgslice.planning.purge_size`).
 
 The tower is a rectangle sized so the layer with the most changes fits: each change owns
-``rows_per_change`` back-and-forth rows at spacing ``w`` inside a perimeter. Every layer
+``rows_per_change`` back-and-forth rows at spacing ``w`` inside a perimeter (``model``:
+the purges of a layer follow one another along its rows, whatever their lengths). Every layer
 prints the perimeter and a sparse fill over the rows no purge used (in the state the
 layer starts in), so the tower never stands on air, from the bed up to the part's top.
 """
@@ -27,11 +27,13 @@ from dataclasses import dataclass
 from functools import cached_property
 from operator import attrgetter
 
+import msgspec
 import numpy as np
 import shapely
 
 from fgslice.errors import SettingsError, SliceError
 from fgslice.planning.plan import EXTRA, PACKED, STATE, LayerPlan, PackedSteps, SetState, Step, polyline_lengths
+from fgslice.planning.purge_size import PurgeSizer, purge_length
 from fgslice.settings import Settings
 from fgslice.toolpaths.paths import Path, Role, bead_area
 
@@ -52,11 +54,6 @@ CURRENT_STATE = -1
 MADE_PATHS = 4096
 
 
-def purge_length(melt_volume_mm3: float, bead_width: float, layer_height: float) -> float:
-    """``L = V_melt / (h (w - h) + pi h^2 / 4)``, mm of bead that extrudes ``V_melt``."""
-    return melt_volume_mm3 / bead_area(bead_width, layer_height)
-
-
 @dataclass(frozen=True)
 class PurgeTower:
     """A rectangular purge tower on the bed.
@@ -64,11 +61,13 @@ class PurgeTower:
     Attributes:
         x0, y0, x1, y1: outer edges of the tower in the bed frame, mm.
         line_width: bead width of its lines, mm.
-        purge_mm: purge length per (full) change at the nominal layer height, mm.
+        purge_mm: purge length per change the tower is sized for at the nominal layer height, mm.
         rows_per_change: back-and-forth rows each change owns on a layer.
         rows: rows per layer (at least ``changes_per_layer * rows_per_change``).
         changes_per_layer: most changes a layer may hold.
         n_layers: layers the tower is printed on (the part's layers).
+        consecutive: a layer's purges follow one another along its rows (``purge_size =
+            model``) instead of each filling the rows of its own slot.
     """
 
     x0: float
@@ -81,24 +80,29 @@ class PurgeTower:
     rows: int
     changes_per_layer: int
     n_layers: int
+    consecutive: bool = False
 
     @classmethod
     def plan(
-        cls, part_footprint: shapely.Geometry, settings: Settings, changes_per_layer: int, n_layers: int
+        cls, part_footprint: shapely.Geometry, settings: Settings, changes_per_layer: int, n_layers: int,
+        sizer: PurgeSizer | None = None, *, explain: bool = True,
     ) -> "PurgeTower":
         """Size and place the tower clear of ``part_footprint`` (bed frame, skirt included).
 
         The position is ``(purge_tower_x, purge_tower_y)`` (the tower's center) when set,
         else the first free spot right of the part, left, behind, in front, then anywhere
-        on the bed nearest the part; squarer shapes are tried first.
+        on the bed nearest the part; squarer shapes are tried first. ``sizer`` gives the
+        length each change needs (default: the melt volume's, ``purge_size = full``);
+        ``explain`` false leaves the search for settings that would fit out of the error.
 
         Raises:
             SettingsError: only one of purge_tower_x / purge_tower_y is set.
-            SliceError: the chosen spot overlaps the part or leaves the bed, or no spot fits.
+            SliceError: the chosen spot overlaps the part or leaves the bed, or no spot fits
+                (with ``purge_size = model``: saying which tolerance or palette would fit).
         """
         w = settings.bead_width
         changes = max(1, int(changes_per_layer))
-        length = purge_length(settings.melt_volume_mm3, w, settings.layer_height)
+        length = sizer.tower_length(changes) if sizer else purge_length(settings.melt_volume_mm3, w, settings.layer_height)
         sizes = [_tower_size(length, changes, w, aspect) for aspect in ASPECTS]
         keepout = shapely.buffer(part_footprint, TOWER_CLEARANCE_MM)
         shapely.prepare(keepout)
@@ -118,7 +122,7 @@ class PurgeTower:
             if ok.any():
                 cx, cy = (float(v) for v in centers[np.argmax(ok)])
                 return cls(cx - width / 2, cy - depth / 2, cx + width / 2, cy + depth / 2, w, length,
-                           rows_per_change, rows, changes, n_layers)
+                           rows_per_change, rows, changes, n_layers, bool(sizer and sizer.model))
         width, depth = sizes[0][:2]
         what = f"{width:.0f} x {depth:.0f} mm purge tower ({changes} changes per layer x {length:.0f} mm of purge)"
         if fixed[0] is not None:
@@ -127,10 +131,10 @@ class PurgeTower:
                 f"(clearance {TOWER_CLEARANCE_MM:g} mm) or leaves the {bed[0]:g} x {bed[1]:g} mm bed",
                 hint="move it (purge_tower_x/purge_tower_y), or --set purge_tower_x=auto --set purge_tower_y=auto",
             )
-        raise SliceError(
-            f"no room on the {bed[0]:g} x {bed[1]:g} mm bed for a {what} beside the part",
-            hint="--set purge=false, a smaller palette (--set colors=...), or a smaller melt_volume_mm3",
-        )
+        hint = "--set purge=false, a smaller palette (--set colors=...), or a smaller melt_volume_mm3"
+        if sizer and sizer.model and explain:
+            hint = _fitting_alternatives(part_footprint, changes, n_layers, sizer) + "; or --set purge=false"
+        raise SliceError(f"no room on the {bed[0]:g} x {bed[1]:g} mm bed for a {what} beside the part", hint=hint)
 
     @property
     def footprint(self) -> shapely.Polygon:
@@ -150,6 +154,35 @@ class PurgeTower:
         seg = np.hypot(*np.moveaxis(np.diff(points, axis=1), -1, 0))
         arc = np.concatenate([np.zeros((len(points), 1)), np.cumsum(seg, axis=1)], axis=1)
         return points, arc
+
+    @cached_property
+    def _rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """All purge rows of a layer as one back-and-forth line (``consecutive``): points
+        ``(2 * changes_per_layer * rows_per_change, 2)`` mm and the arc length at each."""
+        w, n = self.line_width, self.changes_per_layer * self.rows_per_change
+        y = self.y0 + w + w * np.arange(n)
+        x = np.tile([self.x0 + w, self.x1 - w, self.x1 - w, self.x0 + w], (n + 1) // 2)[: 2 * n]
+        points = np.column_stack([x, np.repeat(y, 2)])
+        arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(points, axis=0).T))]
+        return points, arc
+
+    def rows_used(self, length: float) -> int:
+        """Rows the first ``length`` mm of a layer's consecutive purges cover."""
+        _, arc = self._rows
+        return int(np.searchsorted(arc[1::2], length - 1e-9)) + 1 if length > 0 else 0
+
+    def purge_path_at(self, start: float, length: float, color: int, height: float) -> Path:
+        """``length`` mm of the layer's rows from arc length ``start`` (``consecutive``)."""
+        points, arc = self._rows
+        end = start + length
+        if end > arc[-1] + 1e-6:
+            raise SliceError(
+                f"a layer's purges need {end:.0f} mm of line; the tower holds {arc[-1]:.0f} mm per layer",
+                hint="a looser purge_tolerance, a smaller palette (--set colors=...), or --set purge_size=full",
+            )
+        inside = (arc > start + 1e-9) & (arc < end - 1e-9)
+        ends = np.column_stack([np.interp([start, end], arc, points[:, 0]), np.interp([start, end], arc, points[:, 1])])
+        return Path(np.vstack([ends[:1], points[inside], ends[1:]]), Role.WIPE_TOWER, color, self.line_width, height)
 
     def purge_path(self, slot: int, length: float, color: int, height: float) -> Path:
         """Back-and-forth lines of ``length`` mm over the rows of change ``slot`` on a layer
@@ -231,24 +264,27 @@ def insert_purges(
     settings: Settings,
     palette,
     stats: PurgeStats | None = None,
+    sizer: PurgeSizer | None = None,
 ) -> Iterator[LayerPlan]:
     """Add the purge tower to each layer, serially and streaming.
 
     Tracks the commanded state across layers. On each layer: skirt paths stay first;
     before the layer's first :class:`SetState` the tower's perimeter and sparse fill are
     printed in the state the layer starts in; after every SetState that changes the
-    state, a purge of the new color (role WIPE_TOWER) on the tower. With
-    ``settings.purge`` false or no tower the plans pass through unchanged.
+    state, a purge of the new color (role WIPE_TOWER) on the tower, as long as ``sizer``
+    says. With ``settings.purge`` false or no tower the plans pass through unchanged.
 
     Args:
         plans: ordered layer plans (from :func:`fgslice.planning.order.order_layer`).
         tower: from :meth:`PurgeTower.plan`.
-        settings: uses ``purge``, ``melt_volume_mm3``, ``bead_width``, ``purge_scale_by_change``.
-        palette: its ``centers`` ((N, k) fractions) size scaled purges.
+        settings: uses ``purge``, ``melt_volume_mm3``, ``bead_width``.
+        palette: its ``centers`` ((N, k) fractions) size model purges.
         stats: filled with volumes as layers go by; read it once the iterator is exhausted.
+        sizer: purge lengths; default :meth:`PurgeSizer.of` ``settings`` and ``palette``.
 
     Raises:
         ValueError: a layer holds more changes, or lies higher, than the tower was planned for.
+        SliceError: a layer's model purges are longer than the tower holds.
     """
     stats = stats if stats is not None else PurgeStats()
     if not settings.purge or tower is None:
@@ -256,7 +292,7 @@ def insert_purges(
             stats.extruded_mm3 += _plan_volume(plan)
             yield plan
         return
-    centers = np.asarray(palette.centers, dtype=np.float64)
+    sizer = sizer or PurgeSizer.of(settings, palette.centers)
     state: int | None = None
     made: dict[tuple, tuple[Path, float]] = {}  # tower paths and volumes by what makes them: layers repeat them
     for plan in plans:
@@ -272,13 +308,17 @@ def insert_purges(
             colors = [plan.steps[i].color for i in marks]
             n_steps = len(plan.steps)
         changes = _count_changes(colors, state)
-        if changes > tower.changes_per_layer:
+        lengths = _purge_lengths(colors, state, sizer, plan)
+        used_slots = changes
+        if tower.consecutive:
+            used_slots = math.ceil(tower.rows_used(sum(lengths)) / tower.rows_per_change)
+        elif changes > tower.changes_per_layer:
             raise ValueError(
                 f"layer {plan.index} has {changes} state changes; the tower was sized for {tower.changes_per_layer}"
             )
         if len(made) > MADE_PATHS:
             made.clear()
-        base_key = ("base", changes, CURRENT_STATE if state is None else state, plan.height)
+        base_key = ("base", used_slots, CURRENT_STATE if state is None else state, plan.height)
         if base_key not in made:
             paths = tower.base_paths(*base_key[1:])
             made[base_key] = (paths, float(_volumes(paths).sum()))
@@ -290,23 +330,22 @@ def insert_purges(
             pieces.append(base)
         purges: list[Path] = []
         purge_volumes: list[float] = []
-        for k, (i, color) in enumerate(zip(marks, colors)):
+        laid = 0.0  # mm of the layer's rows the consecutive purges have used
+        for k, (i, color, length) in enumerate(zip(marks, colors, lengths)):
             if k == 0:
                 pieces.append(base)
             pieces.append((i, i + 1))
-            if color != state:
-                length = purge_length(settings.melt_volume_mm3, tower.line_width, plan.height)
-                if settings.purge_scale_by_change and state is not None:
-                    length *= float(np.max(np.abs(centers[color] - centers[state])))
-                key = (len(purges), length, color, plan.height)
+            if color != state and length > 0:
+                key = (laid if tower.consecutive else len(purges), length, color, plan.height)
+                laid += length
                 if key not in made:
-                    path = tower.purge_path(*key)
+                    path = tower.purge_path_at(*key) if tower.consecutive else tower.purge_path(*key)
                     made[key] = (path, float(_volumes([path])[0]))
                 path, volume = made[key]
                 purges.append(path)
                 purge_volumes.append(volume)
                 pieces.append([path])
-                state = color
+            state = color
             pieces.append((i + 1, ends[k + 1]))
         purge_volume = float(np.sum(purge_volumes))
         stats.purge_mm3 += purge_volume
@@ -349,6 +388,16 @@ def _plan_volume(plan: LayerPlan) -> float:
     return float(np.dot(packed.lengths[ref], area)) + float(_volumes(packed.extras).sum())
 
 
+def _purge_lengths(colors: list[int], state: int | None, sizer: PurgeSizer, plan: LayerPlan) -> list[float]:
+    """Purge length after each of a layer's SetStates (their ``colors`` in order), starting
+    from ``state``: 0 where the state does not change, mm."""
+    lengths = []
+    for color in colors:
+        lengths.append(0.0 if color == state else sizer.length(state, color, plan.height, plan.index))
+        state = color
+    return lengths
+
+
 def _count_changes(colors: list[int], state: int | None) -> int:
     """How many of the layer's SetStates (their ``colors`` in order) change the state,
     starting from ``state``."""
@@ -362,6 +411,53 @@ def _volumes(paths: list[Path]) -> np.ndarray:
     arrays, closed, widths, heights = zip(*map(attrgetter("points", "closed", "width", "height"), paths))
     lengths = polyline_lengths(arrays, np.array(closed, dtype=bool))
     return lengths * bead_area(np.array(widths), np.array(heights))
+
+
+def _fitting_alternatives(part_footprint: shapely.Geometry, changes: int, n_layers: int, sizer: PurgeSizer) -> str:
+    """What would make a model-sized tower fit the bed: the tightest ``purge_tolerance``
+    (bisected between the current one and the whole composition range) and the largest
+    palette at the current tolerance rule (bisected; a layer then spans at most as many
+    changes as colors)."""
+    from fgslice.slicing.palette import Palette, palette_size
+
+    settings = sizer.settings
+
+    def fits(s: Settings, centers: np.ndarray, n_changes: int) -> bool:
+        try:
+            PurgeTower.plan(part_footprint, s, n_changes, n_layers, PurgeSizer.of(s, centers), explain=False)
+        except SliceError:
+            return False
+        return True
+
+    def tolerant(t: float) -> Settings:
+        return msgspec.structs.replace(settings, purge_tolerance=t)
+
+    found = []
+    tol, top = sizer.tolerance, sizer.full_range
+    if top > tol and fits(tolerant(top), sizer.centers, changes):
+        low, high = tol, top
+        for _ in range(40):
+            mid = math.sqrt(low * high)
+            low, high = (low, mid) if fits(tolerant(mid), sizer.centers, changes) else (mid, high)
+        unit = 10.0 ** (math.floor(math.log10(high)) - 1)
+        fitting = math.ceil(high / unit - 1e-9) * unit
+        bin_ = sizer.bin_size * sizer.full_range
+        found.append(f"--set purge_tolerance={fitting:.2g} fits ({fitting / bin_:.2g} of a palette bin; "
+                     f"the current {tol:.3g} is {tol / bin_:.2g}, and fidelity falls as it grows)")
+    k = sizer.centers.shape[1]
+    sizes = sorted({palette_size(k, m) for m in range(1, len(sizer.centers) + 1)} & set(range(2, len(sizer.centers))))
+    low, high = -1, len(sizes)  # sizes[low] fits (or none), sizes[high] does not
+    while high - low > 1:
+        mid = (low + high) // 2
+        smaller = msgspec.structs.replace(settings, colors=sizes[mid])
+        if fits(smaller, Palette(k, sizes[mid]).centers, min(changes, sizes[mid])):
+            low = mid
+        else:
+            high = mid
+    if low >= 0:
+        rule = "a tenth of its bin" if settings.purge_tolerance == "auto" else f"{tol:.3g}"
+        found.append(f"--set colors={sizes[low]} fits (tolerance {rule})")
+    return " or ".join(found) if found else "no purge_tolerance or smaller palette fits"
 
 
 def _tower_size(length: float, changes: int, w: float, aspect: float) -> tuple[float, float, int, int]:
