@@ -169,11 +169,13 @@ class _progress:
 @main.command("check")
 @click.argument("design", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--materials", type=click.Path(dir_okay=False, path_type=Path), help="Material library JSON.")
-def check_command(design, materials):
-    """Load DESIGN and report its materials, size and problems."""
+@click.option("--profile", default=None, help="Machine profile whose limits the attributes must fit.")
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="Override any setting (repeatable).")
+def check_command(design, materials, profile, sets):
+    """Load DESIGN and report its materials, size, attribute ranges and problems."""
     from fgslice.design import check_design, format_report, load_design
 
-    report = check_design(load_design(design, materials))
+    report = check_design(load_design(design, materials), settings=_settings(profile, sets))
     click.echo(format_report(report))
     sys.exit(0 if report.usable else 1)
 
