@@ -61,14 +61,10 @@ class Attribute(nodes.Node):
         self.field = field
         self._body = self.children[0] if len(self.children) == 1 else nodes.Union(self.children, where)
 
-    def sdf(self, x, y, z):
-        return self._body.sdf(x, y, z)
-
-    def _bounds(self):
-        return self._body.bounds()
-
-    def _sections(self, zs, spacing):
-        return self._body.sections(zs, spacing)
+    # geometry is the children's, as an fgrade's
+    sdf = nodes.Fgrade.sdf
+    _bounds = nodes.Fgrade._bounds
+    _sections = nodes.Fgrade._sections
 
     def raw(self, x, y, z, ctx, columns):
         return self._body.raw(x, y, z, ctx, columns)
