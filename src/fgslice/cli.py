@@ -293,7 +293,8 @@ def calibrate_lookahead(profile, sets, output, measured_error, segment_length, b
 @click.option("--materials", type=click.Path(dir_okay=False, path_type=Path), help="Material library JSON.")
 @click.option("--travel", is_flag=True, help="Draw travel moves too.")
 @click.option("--sheet", type=int, metavar="N", help="A contact sheet of N evenly spaced layers instead.")
-def preview_command(gcode, output, layer, z, design_path, materials, travel, sheet):
+@click.option("--attribute", metavar="NAME", help="Color by a process attribute as commanded: fan, flow, speed, temperature, infill_density.")
+def preview_command(gcode, output, layer, z, design_path, materials, travel, sheet, attribute):
     """Draw a layer of GCODE (or a contact sheet) at real bead width, colored by state."""
     from fgslice.output import check_writable
     from fgslice.preview.colors import load_printout
@@ -314,7 +315,7 @@ def preview_command(gcode, output, layer, z, design_path, materials, travel, she
         layer = nearest_layer(printout, z)
     elif layer is None:
         layer = layer_count(printout.program) // 2
-    render_layer(printout, layer, output, design=design, show_travel=travel)
+    render_layer(printout, layer, output, design=design, show_travel=travel, attribute=attribute)
     click.echo(f"{output}: layer {layer}")
 
 
