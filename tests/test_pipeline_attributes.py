@@ -154,3 +154,24 @@ def test_strategy_2_warns_that_it_ignores_infill_density_and_temperature_is_refu
     with pytest.raises(DesignError, match="does not write the attribute temperature"):
         _slice('attribute("temperature", 215) { cube(5); }', tmp_path, name="hot.gcode")
     assert not (tmp_path / "hot.gcode").exists()
+
+
+@pytest.mark.parametrize("tolerance", [0.5, 5.0])
+def test_no_piece_spans_more_than_the_tolerance(tmp_path, tolerance):
+    settings, program, stats, _ = _slice('attribute("speed", "60 + 0.004*x*x*x/10") { rectprism(100, 20, 2); }',
+                                         tmp_path, attribute_tolerance=tolerance)
+    part = _printing(program) & ~_roles(program, ["Skirt/Brim"]) & (program.layer > 0)
+    feature = np.where(_roles(program, ["External perimeter"]), settings.outer_wall_speed, settings.print_speed)[part]
+    commanded = program.feed[part] / 60 / feature * 100
+    offset = np.array(stats["placement_offset"])
+    for end in (program.start[part], program.end[part]):
+        x = end[:, 0] - offset[0]
+        assert np.abs(commanded - (60 + 0.004 * x**3 / 10)).max() <= tolerance + 0.1
+    assert len(commanded) > 5 * 100 / 5 / tolerance
+
+
+def test_the_tolerance_is_recorded_only_where_it_applies(tmp_path):
+    *_, graded = _slice(f'attribute("fan", 40) {{ {PLATE} }}', tmp_path)
+    *_, plain = _slice(PLATE, tmp_path, name="plain.gcode")
+    assert "; attribute_tolerance = 2.0\n" in graded.read_text()
+    assert "attribute_tolerance" not in plain.read_text()

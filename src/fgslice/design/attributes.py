@@ -16,7 +16,6 @@ Units: ``temperature`` degrees Celsius; ``flow`` percent of the nominal extrusio
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Sequence
 
 import numpy as np
@@ -66,16 +65,12 @@ class Attribute(nodes.Node):
     _bounds = nodes.Fgrade._bounds
     _sections = nodes.Fgrade._sections
 
+    # materials are the children's, as under a transform
+    coordinate_free = nodes.Affine.coordinate_free
+    passes_context = nodes.Affine.passes_context
+
     def raw(self, x, y, z, ctx, columns):
         return self._body.raw(x, y, z, ctx, columns)
-
-    @functools.cached_property
-    def coordinate_free(self) -> bool:
-        return self._body.coordinate_free
-
-    @functools.cached_property
-    def passes_context(self) -> bool:
-        return self._body.passes_context
 
     def values(self, x, y, z) -> np.ndarray:
         """The field at points of this node's frame (1-D arrays), float64."""

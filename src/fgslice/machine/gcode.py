@@ -51,7 +51,7 @@ import numpy as np
 import fgslice
 from fgslice.errors import SettingsError
 from fgslice.machine.dialects import PLACEHOLDER, Dialect, PaletteLike
-from fgslice.machine.grading import UNGRADED
+from fgslice.machine.grading import GRADING_SETTINGS, UNGRADED
 from fgslice.machine.thumbnails import thumbnail_block
 from fgslice.planning.plan import EXTRA, ROLE_CODE, ROLES, STATE, LayerPlan, Prepared, SetState
 from fgslice.settings import Settings
@@ -616,7 +616,8 @@ class GcodeWriter:
         text = "\n".join(lines) + "\n"
         text += "".join(thumbnail_block(png, w, h) for png, w, h in self.thumbnails)
         lines = [""] + [f"; {k} = {_one_line(v)}" for k, v in self.comments.items()]
-        lines += [f"; {k} = {_one_line(v)}" for k, v in s.as_dict().items()]
+        unused = () if self.grading is not None else GRADING_SETTINGS
+        lines += [f"; {k} = {_one_line(v)}" for k, v in s.as_dict().items() if k not in unused]
         lines.append(f"; palette = {self.palette.size} colors of {self.palette.n_materials} materials, dialect {self.dialect.name}")
         lines += [
             f"; color {c} = {self.palette.label(c)} : {self.dialect.describe(c)}" for c in range(self.palette.size)

@@ -30,6 +30,10 @@ SAMPLE_MM = 0.2
 """Spacing of the field samples along a move, mm (half a 0.4 mm bead): variations of the
 field shorter than that may be missed."""
 
+GRADING_SETTINGS = ("attribute_tolerance",)
+"""Settings only the grading uses: the header lists them only for designs it grades, so
+that the G-code of other designs is what it was before the setting existed."""
+
 CHECK_SAMPLES = 32
 """Grid points along the part's longest side when a slice checks its attributes."""
 
