@@ -98,3 +98,17 @@ def test_limits_follow_the_settings():
     assert got["flow"] == (s.min_flow_percent, s.max_flow_percent)
     assert got["speed"][1] == pytest.approx(100 * s.travel_speed / s.infill_speed)
     assert limits(Settings(max_cross_section_mm2=0.1))["flow"][1] == pytest.approx(100 * 0.1 / s.bead_area)
+
+
+def test_cli_check_takes_the_machine_limits_from_the_profile(tmp_path):
+    from click.testing import CliRunner
+
+    from fgslice.cli import main
+
+    path = tmp_path / "fast.vcad"
+    path.write_text('attribute("speed", "220 + x") { rectprism(100, 20, 2); }')
+    result = CliRunner().invoke(main, ["check", str(path)])
+    assert result.exit_code == 1
+    assert "attribute speed" in result.output and "attribute 'speed' ranges" in result.output
+    result = CliRunner().invoke(main, ["check", str(path), "--set", "travel_speed=300"])
+    assert result.exit_code == 0, result.output

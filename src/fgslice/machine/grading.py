@@ -176,7 +176,8 @@ def checked_attributes(design, settings) -> AttributeFields | None:
             f"the slicer does not write the attribute{'s' if len(unsliced) > 1 else ''} {', '.join(unsliced)}",
             hint=f"it writes {', '.join(SLICED)}; remove the others' attribute nodes",
         )
-    problems = [e for e in check_design(design, samples=CHECK_SAMPLES, settings=settings).errors if "attribute" in e]
+    problems = [e for e in check_design(design, samples=CHECK_SAMPLES, settings=settings).errors
+                if e.startswith("attribute '")]
     if problems:
         raise DesignError("; ".join(problems), hint="run 'fgslice check' on the design with the same profile")
     return fields
