@@ -172,11 +172,13 @@ class _progress:
 @main.command("check")
 @click.argument("design", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--materials", type=click.Path(dir_okay=False, path_type=Path), help="Material library JSON.")
-def check_command(design, materials):
-    """Load DESIGN and report its materials, size and problems."""
+@click.option("--profile", default=None, help="Machine profile whose limits the attributes must fit.")
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="Override any setting (repeatable).")
+def check_command(design, materials, profile, sets):
+    """Load DESIGN and report its materials, size, attribute ranges and problems."""
     from fgslice.design import check_design, format_report, load_design
 
-    report = check_design(load_design(design, materials))
+    report = check_design(load_design(design, materials), settings=_settings(profile, sets))
     click.echo(format_report(report))
     sys.exit(0 if report.usable else 1)
 
@@ -298,7 +300,8 @@ def calibrate_lookahead(profile, sets, output, measured_error, segment_length, b
 @click.option("--materials", type=click.Path(dir_okay=False, path_type=Path), help="Material library JSON.")
 @click.option("--travel", is_flag=True, help="Draw travel moves too.")
 @click.option("--sheet", type=int, metavar="N", help="A contact sheet of N evenly spaced layers instead.")
-def preview_command(gcode, output, layer, z, design_path, materials, travel, sheet):
+@click.option("--attribute", metavar="NAME", help="Color by a process attribute as commanded: fan, flow, speed, temperature, infill_density.")
+def preview_command(gcode, output, layer, z, design_path, materials, travel, sheet, attribute):
     """Draw a layer of GCODE (or a contact sheet) at real bead width, colored by state."""
     from fgslice.output import check_writable
     from fgslice.preview.colors import load_printout
@@ -319,7 +322,7 @@ def preview_command(gcode, output, layer, z, design_path, materials, travel, she
         layer = nearest_layer(printout, z)
     elif layer is None:
         layer = layer_count(printout.program) // 2
-    render_layer(printout, layer, output, design=design, show_travel=travel)
+    render_layer(printout, layer, output, design=design, show_travel=travel, attribute=attribute)
     click.echo(f"{output}: layer {layer}")
 
 

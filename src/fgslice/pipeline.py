@@ -43,6 +43,7 @@ from fgslice.guards import check_resources
 from fgslice.interrupts import sigint_held
 from fgslice.machine.dialects import make_dialect
 from fgslice.machine.gcode import GcodeWriter, build_number_tables, prepare_bodies
+from fgslice.machine.grading import SegmentGrading, checked_attributes
 from fgslice.machine.verify import FOLLOW_BLOCK_BYTES, follow_file, format_faults, verify_gcode, verify_gcode_blocks
 from fgslice.output import atomic_output
 from fgslice.planning.lookahead import apply_lookahead, apply_time_lead
@@ -80,6 +81,7 @@ class SliceJob:
         outlines: strategy 1 only: every layer's bed-frame outline, in layer order.
         repeats: strategy 2: the layers this process has finished, for later layers whose
             regions repeat theirs (``planning.repeats``; the one part each process changes).
+        grading: the design's fan, flow and speed attributes (``machine.grading``), if any.
     """
 
     design: Design
@@ -90,6 +92,7 @@ class SliceJob:
     start_xy: np.ndarray
     outlines: list[shapely.Geometry] = field(default_factory=list)
     repeats: RepeatedLayers = field(default_factory=RepeatedLayers)
+    grading: SegmentGrading | None = None
 
 
 @dataclass
@@ -167,7 +170,7 @@ def _layer_task(job: SliceJob, index: int) -> LayerResult:
         paths.paths = skirt_paths(regions.outline, s) + paths.paths
     colors = len({p.color for p in paths.paths if p.color >= 0})
     plan = order_layer(paths, job.palette.order_for_layer(i), job.start_xy, s.feature_order)
-    prepare_bodies(plan, s)
+    prepare_bodies(plan, s, job.grading)
     result = LayerResult(plan=plan, short_pieces=short, uncovered_mm2=paths.uncovered_mm2, colors=colors)
     if repeats is not None:
         repeats.keep(regions, plan, result)
@@ -272,7 +275,9 @@ def slice_to_gcode(
     layers = layer_heights(design, settings)
     check_resources(design, settings, len(layers))
     bed_center = np.array([settings.bed_x / 2, settings.bed_y / 2])
-    job = SliceJob(design, settings, palette, placement, layers, bed_center)
+    attributes = checked_attributes(design, settings)
+    job = SliceJob(design, settings, palette, placement, layers, bed_center,
+                   grading=SegmentGrading.of(attributes, placement.offset, settings))
     if settings.strategy == 2:  # one plane per layer task (strategy 1 sections batches of layers)
         design.prepare_sections()
     _prepare_for_workers()
@@ -331,7 +336,7 @@ def slice_to_gcode(
             thumbnails = thumbnails()
         writer = GcodeWriter(
             handle, settings, palette, dialect, comments=header, thumbnails=thumbnails, materials=design.materials,
-            now=stamp or build_time(),
+            now=stamp or build_time(), grading=job.grading,
         )
         writer.write_header()
         told = 0  # the file size the verifier was last told
@@ -363,6 +368,8 @@ def slice_to_gcode(
     stats["warnings"] = list(stats["warnings"]) + strategy1.summarize_short_pieces(
         short_records, total, settings.min_segment_mm
     )
+    if settings.strategy == 2 and attributes is not None and "infill_density" in attributes.names:
+        stats["warnings"].append("strategy 2 fills every face densely: the infill_density attribute is ignored")
     stats.update(
         {
             "layers": total,

@@ -68,6 +68,7 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     feature_order: Annotated[Literal["walls_first", "infill_first"], Meta(description="within a color, strategy 1")] = "walls_first"
     min_segment_mm: Annotated[float, Meta(ge=0, le=1000, description="strategy 1 warns when color pieces are shorter, mm")] = 5.0
     zipper: Annotated[float, Meta(ge=0, le=100, description="zipper overlap band beta, percent of the gradient range")] = 0.0
+    attribute_tolerance: Annotated[float, Meta(gt=0, le=100, description="largest change of a fan, flow or speed attribute over one extrusion piece, points of percent")] = 2.0
     gcode_resolution: Annotated[float, Meta(gt=0, le=1.0, description="path simplification tolerance, mm")] = 0.0125
 
     # -- placement -------------------------------------------------------------------

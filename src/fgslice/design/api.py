@@ -37,6 +37,7 @@ __all__ = [
     "rotate",
     "scale",
     "fgrade",
+    "attribute",
     "design",
     "load_design",
     "parse_design",
@@ -180,6 +181,19 @@ def fgrade(fields: Sequence[Field], materials: Sequence[str], *children: nodes.N
     if mode not in ("prob", "thresh"):
         raise DesignError(f'fgrade mode must be "prob" or "thresh", got {mode!r}')
     return nodes.Fgrade([nodes.Field(f) for f in fields], materials, _children("fgrade", children), mode)
+
+
+def attribute(name: str, field: Field | float, *children: nodes.Node) -> nodes.Node:
+    """Grade the process parameter ``name`` over the children (see
+    :mod:`fgslice.design.attributes`: fan, flow or flow_rate, speed, temperature,
+    infill_density); ``field`` is evaluated in this node's frame, a number is constant."""
+    from fgslice.design.attributes import Attribute
+
+    if not isinstance(name, str):
+        raise DesignError(f"attribute: the name must be a string, got {name!r}")
+    if isinstance(field, (int, float)) and not isinstance(field, bool):
+        field = repr(float(field))
+    return Attribute(name, nodes.Field(field), _children("attribute", children))
 
 
 def design(

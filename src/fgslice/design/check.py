@@ -4,7 +4,9 @@
 the points inside the part and reports the materials, the box, the node count,
 each material's fraction range over the part, and problems: raw fractions outside [0, 1]
 (with the share of the part's volume where that happens), fractions summing to 0,
-NaN/inf values, meshes that are not watertight. Errors make the design unusable
+NaN/inf values, meshes that are not watertight; each process attribute's range over the
+part, an error where it leaves the machine's limits (:func:`fgslice.design.attributes.limits`
+under the given settings, the defaults when none). Errors make the design unusable
 (nothing inside, non-finite geometry); warnings do not.
 
 Inside/outside comes from the signed distance (sdf <= 0), except for designs holding
@@ -36,6 +38,8 @@ class CheckReport:
         bounds: axis-aligned box ``((minx, miny, minz), (maxx, maxy, maxz))``, mm.
         node_count: nodes in the design tree (0 when not a node tree).
         fraction_ranges: material name -> (min, max) normalized fraction over the part.
+        attribute_ranges: attribute name -> (min, max) of its values over the samples of
+            the part it covers (units of :data:`fgslice.design.attributes.UNITS`).
         inside_samples: grid points found inside the part.
         spacing: grid step used, mm.
         warnings: problems that still allow slicing.
@@ -46,6 +50,7 @@ class CheckReport:
     bounds: tuple[tuple[float, float, float], tuple[float, float, float]]
     node_count: int
     fraction_ranges: dict[str, tuple[float, float]] = field(default_factory=dict)
+    attribute_ranges: dict[str, tuple[float, float]] = field(default_factory=dict)
     inside_samples: int = 0
     spacing: float = 0.0
     warnings: list[str] = field(default_factory=list)
@@ -87,8 +92,10 @@ def _share(mask: np.ndarray) -> str:
     return f"{100.0 * np.count_nonzero(mask) / mask.size:.1f}%"
 
 
-def check_design(design: Design, *, samples: int = DEFAULT_SAMPLES) -> CheckReport:
-    """Inspect ``design`` on a grid of about ``samples`` points along its longest side."""
+def check_design(design: Design, *, samples: int = DEFAULT_SAMPLES, settings=None) -> CheckReport:
+    """Inspect ``design`` on a grid of about ``samples`` points along its longest side;
+    ``settings`` (:class:`fgslice.settings.Settings`) give the machine's limits of the
+    process attributes (the defaults when None)."""
     bounds = design.bounds()
     node_count = design.node_count if isinstance(design, NodeDesign) else 0
     report = CheckReport(list(design.materials), bounds, node_count)
@@ -142,6 +149,7 @@ def check_design(design: Design, *, samples: int = DEFAULT_SAMPLES) -> CheckRepo
                 f"raw fraction of '{material.name}' leaves [0, 1] over {_share(outside)} of the part "
                 f"(range {raw[:, i].min():.3g} to {raw[:, i].max():.3g}; clamped)"
             )
+    _check_attributes(design, x, y, z, settings, report)
     zero = np.clip(raw, 0, 1).sum(axis=1) <= 0
     if zero.any():
         report.warnings.append(
@@ -149,6 +157,33 @@ def check_design(design: Design, *, samples: int = DEFAULT_SAMPLES) -> CheckRepo
             f"'{report.materials[0].name}', is used there)"
         )
     return report
+
+
+def _check_attributes(design: Design, x, y, z, settings, report: CheckReport) -> None:
+    """Each attribute's range over the samples inside the part, and an error for each
+    range the machine cannot command."""
+    from fgslice.design.attributes import attribute_fields, out_of_limits
+    from fgslice.settings import Settings
+
+    fields = attribute_fields(design)
+    if fields is None:
+        return
+    settings = settings or Settings()
+    for name in fields.names:
+        try:
+            values = fields.values(name, x, y, z)
+        except FgsliceError as exc:
+            report.errors.append(f"attribute '{name}' cannot be evaluated: {exc.message}")
+            continue
+        values = values[np.isfinite(values)]
+        if not values.size:
+            report.warnings.append(f"attribute '{name}' covers no sample of the part (the settings apply)")
+            continue
+        low, high = float(values.min()), float(values.max())
+        report.attribute_ranges[name] = (low, high)
+        problem = out_of_limits(name, low, high, settings)
+        if problem:
+            report.errors.append(problem)
 
 
 def format_report(report: CheckReport) -> str:
@@ -163,6 +198,10 @@ def format_report(report: CheckReport) -> str:
         f"bounding box: x {x0:.3f} .. {x1:.3f}, y {y0:.3f} .. {y1:.3f}, z {z0:.3f} .. {z1:.3f} mm "
         f"({x1 - x0:.2f} x {y1 - y0:.2f} x {z1 - z0:.2f} mm)"
     )
+    from fgslice.design.attributes import UNITS
+
+    for name, (lo, hi) in report.attribute_ranges.items():
+        lines.append(f"attribute {name:<14} {lo:.4g} .. {hi:.4g} {UNITS[name]}")
     lines.append(f"nodes: {report.node_count}")
     lines.append(f"samples inside the part: {report.inside_samples} (grid step {report.spacing:.3g} mm)")
     lines.extend(f"warning: {w}" for w in report.warnings)

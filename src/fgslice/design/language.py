@@ -367,6 +367,14 @@ def _fgrade(b: _Builder, args, children, where, top):
     return nodes.Fgrade(fields, names, children, mode, where)
 
 
+def _attribute(b: _Builder, args, children, where, top):
+    from fgslice.design.attributes import Attribute
+
+    (name, value), _ = _match("attribute", '("name", "expr" | number)', args, [("string", "string"), ("string", "number")], where)
+    source = value if args[1].kind == "string" else repr(float(value))
+    return Attribute(name, nodes.Field(source, args[1].where), children, args[0].where)
+
+
 _PRIMITIVES = {
     "sphere": _sphere,
     "cube": _cube,
@@ -386,6 +394,7 @@ _OPERATORS = {
     "rotate": _vector_op(nodes.Rotate, "rotate"),
     "scale": _vector_op(nodes.Scale, "scale", allow_uniform=True),
     "fgrade": _fgrade,
+    "attribute": _attribute,
 }
 
 

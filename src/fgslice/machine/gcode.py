@@ -52,6 +52,7 @@ import fgslice
 from fgslice.errors import SettingsError
 from fgslice.design.base import Material
 from fgslice.machine.dialects import PLACEHOLDER, Dialect, PaletteLike
+from fgslice.machine.grading import GRADING_SETTINGS, UNGRADED
 from fgslice.machine.prusa_config import footer_block
 from fgslice.machine.thumbnails import thumbnail_block
 from fgslice.planning.plan import EXTRA, ROLE_CODE, ROLES, STATE, LayerPlan, Prepared, SetState
@@ -248,6 +249,13 @@ class PathBodies:
         low, high: ``(n, 2)`` corners of the box around the path's written points, mm.
         e: ``(n,)`` filament written, mm.
         length: ``(n,)`` XY length of the written moves, mm.
+        paced: ``(n,)`` with a speed attribute: the length each path would have at 100%
+            speed for the time its moves take (``sum L / (speed / 100)``), mm; else None.
+        fan: ``(n, 2)`` with a fan attribute: the ``M106 S`` value (0-255) a path starts
+            with (the writer commands it when the fan is not there yet) and ends with;
+            -1 where the path leaves the fan alone; else None.
+        commanded: instantaneous attribute name -> ``(n, 2)`` smallest and largest value
+            commanded over each path's moves (percent; NaN for a path without moves).
     """
 
     text: str
@@ -258,24 +266,70 @@ class PathBodies:
     high: np.ndarray
     e: np.ndarray
     length: np.ndarray
+    paced: np.ndarray | None = None
+    fan: np.ndarray | None = None
+    commanded: dict[str, np.ndarray] | None = None
 
 
-def format_bodies(paths: list[Path], filament_area: float) -> PathBodies:
+@dataclass(frozen=True)
+class LayerGrade:
+    """What :func:`format_packed` needs to write a layer's instantaneous attributes.
+
+    Attributes:
+        grading: the design's attributes (:class:`~fgslice.machine.grading.SegmentGrading`).
+        z: the layer's middle height, bed frame, mm.
+        names: the attributes graded on this layer.
+        roles: ``(n,)`` role code (:data:`ROLES`) of each path.
+        feeds: ``(n,)`` feature speed of each path, mm/s.
+    """
+
+    grading: object
+    z: float
+    names: tuple[str, ...]
+    roles: np.ndarray
+    feeds: np.ndarray
+
+
+def role_speeds(settings: Settings, first_layer: bool) -> np.ndarray:
+    """Print speed (mm/s) of each role (:data:`ROLES`) on the first or any other layer."""
+    s = settings
+    by_role = np.full(len(ROLES), s.first_layer_speed if first_layer else s.print_speed)
+    if not first_layer:
+        by_role[ROLE_CODE[Role.EXTERNAL_PERIMETER]] = s.outer_wall_speed
+        by_role[ROLE_CODE[Role.INTERNAL_INFILL]] = s.infill_speed
+    return by_role
+
+
+def layer_grade(grading, plan: LayerPlan, settings: Settings, roles: np.ndarray) -> LayerGrade | None:
+    """The :class:`LayerGrade` of ``plan``'s paths of role codes ``roles`` (None without
+    a grading or with nothing graded on this layer)."""
+    if grading is None or not grading.active(plan.index):
+        return None
+    return LayerGrade(grading, plan.z - plan.height / 2, grading.active(plan.index), roles,
+                      role_speeds(settings, plan.index == 0)[roles])
+
+
+def format_bodies(paths: list[Path], filament_area: float, grade=None) -> PathBodies:
     """The moves of ``paths`` in bulk (E per segment from the bead area, rounding error
-    diffused along each path; see the module notes). ``filament_area`` in mm^2."""
+    diffused along each path; see the module notes). ``filament_area`` in mm^2;
+    ``grade(roles)``: the :class:`LayerGrade` of paths of those role codes, or None."""
     arrays, closed, widths, heights = zip(*map(attrgetter("points", "closed", "width", "height"), paths))
     sizes = np.fromiter(map(len, arrays), dtype=np.int64, count=len(paths))
+    graded = grade(np.array([ROLE_CODE[p.role] for p in paths], dtype=np.int64)) if grade else None
     return format_packed(np.concatenate(arrays), sizes, np.array(closed, dtype=bool), np.array(widths),
-                         np.array(heights), filament_area)
+                         np.array(heights), filament_area, graded)
 
 
 def format_packed(
     points: np.ndarray, sizes: np.ndarray, closed: np.ndarray, widths: np.ndarray, heights: np.ndarray,
-    filament_area: float,
+    filament_area: float, grade: LayerGrade | None = None,
 ) -> PathBodies:
     """:func:`format_bodies` of paths given as columns: ``points`` ``(P, 2)`` mm, one path
     after another, ``sizes`` ``(n,)`` points per path, ``closed``, ``widths`` and
-    ``heights`` (mm) ``(n,)``; ``filament_area`` mm^2."""
+    ``heights`` (mm) ``(n,)``; ``filament_area`` mm^2. With ``grade``, every move is cut
+    where the instantaneous attributes change (:meth:`SegmentGrading.cut`) and written
+    with its E scaled by flow, its own F (feature speed times speed) and an ``M106 S``
+    before each piece whose fan differs from the previous piece's."""
     n = len(sizes)
     counts = sizes + closed  # a closed path's vertices end at its first point again
     first = np.zeros(n + 1, dtype=np.int64)
@@ -293,14 +347,57 @@ def format_packed(
     np.cumsum(n_moves, out=row_start[1:])
 
     lengths = seg[moves]
-    exact = np.cumsum(lengths * (bead_area(widths, heights) / filament_area)[move_path])
+    ends = pts[moves + 1]
+    scale = 1.0
+    if grade is not None and len(moves):
+        part = ~np.isin(grade.roles, UNGRADED)[move_path]
+        pieces = grade.grading.cut(pts[moves], ends, part, grade.z, grade.names)
+        froms = np.roll(pieces.ends, 1, axis=0)
+        first_piece = np.concatenate([[True], pieces.parent[1:] != pieces.parent[:-1]])
+        froms[first_piece] = pts[moves[pieces.parent[first_piece]]]
+        keep = (pieces.ends != froms).any(axis=1)
+        parent, ends = pieces.parent[keep], pieces.ends[keep]
+        values = {name: v[keep] for name, v in pieces.values.items()}
+        part = part[parent]
+        lengths = np.hypot(*(ends - froms[keep]).T)
+        move_path = move_path[parent]
+        n_moves = np.bincount(move_path, minlength=n)
+        np.cumsum(n_moves, out=row_start[1:])
+        scale = values["flow"] / 100.0 if "flow" in values else 1.0
+    exact = np.cumsum(lengths * scale * (bead_area(widths, heights) / filament_area)[move_path])
     exact -= np.concatenate([[0.0], exact])[row_start[:-1]][move_path]
     rounded = np.round(exact, 5)
     e = np.diff(rounded, prepend=0.0)
     printed = n_moves > 0
     e[row_start[:-1][printed]] = rounded[row_start[:-1][printed]]
-    ends = pts[moves + 1]
-    text, offsets = format_moves(ends[:, 0], ends[:, 1], e)
+    paced = fan = commanded = None
+    if grade is None or not len(moves):
+        text, offsets = format_moves(ends[:, 0], ends[:, 1], e)
+    else:
+        fields = [("G1 X", ends[:, 0], XY_DECIMALS), (" Y", ends[:, 1], XY_DECIMALS), (" E", e, E_DECIMALS)]
+        if "speed" in values:
+            fields.append((" F", np.round(grade.feeds[move_path] * values["speed"] * 0.6, 1), 1))
+            paced = np.bincount(move_path, weights=lengths * 100.0 / values["speed"], minlength=n)
+        blocks, line_lengths = _line_blocks(fields, "\n")
+        if "fan" in values:
+            pwm = np.rint(values["fan"] * 2.55).astype(np.int64)
+            firsts = row_start[:-1][printed]
+            fan = np.full((n, 2), -1, dtype=np.int64)
+            fan[printed, 0], fan[printed, 1] = pwm[firsts], pwm[row_start[1:][printed] - 1]
+            changed = np.ones(len(pwm), dtype=bool)
+            changed[1:] = pwm[1:] != pwm[:-1]
+            changed[firsts] = False
+            table, codes = _choices(pwm, changed, lambda v: f"M106 S{int(v)}\n")
+            blocks.insert(0, table[:, codes])
+            line_lengths = line_lengths + np.count_nonzero(table, axis=0)[codes]
+        text, offsets = _assemble(blocks, len(ends), line_lengths)
+        commanded = {}
+        for name, v in values.items():
+            commanded[name] = np.full((n, 2), np.nan)
+            cuts = row_start[:-1][printed]
+            v = np.where(part, v, np.nan)
+            commanded[name][printed, 0] = np.fmin.reduceat(v, cuts)
+            commanded[name][printed, 1] = np.fmax.reduceat(v, cuts)
 
     start = pts[first[:-1]]
     last = np.maximum(row_start[1:] - 1, 0)
@@ -319,23 +416,30 @@ def format_packed(
         high=high,
         e=np.bincount(move_path, weights=e, minlength=n),
         length=np.bincount(move_path, weights=lengths, minlength=n),
+        paced=paced,
+        fan=fan,
+        commanded=commanded,
     )
 
 
-def prepare_bodies(plan: LayerPlan, settings: Settings) -> None:
+def prepare_bodies(plan: LayerPlan, settings: Settings, grading=None) -> None:
     """Format the moves of ``plan``'s paths now (in a per-layer worker) and attach them, so
     that :meth:`GcodeWriter.write_layer` only joins texts: the plan is packed into columns
     (:meth:`LayerPlan.pack`, as it would be to leave the worker) whose rows are its paths'
-    :class:`PathBodies`; a plan that cannot be packed gets them as ``plan.prepared``."""
+    :class:`PathBodies`; a plan that cannot be packed gets them as ``plan.prepared``.
+    ``grading``: the design's instantaneous attributes
+    (:class:`~fgslice.machine.grading.SegmentGrading`), None for none."""
     area = np.pi * settings.filament_diameter**2 / 4.0
     packed = plan.pack()
     if packed is None:
         paths = plan.paths
         if paths:
-            plan.prepared = Prepared(dict(zip(paths, range(len(paths)))), format_bodies(paths, area))
+            grade = (lambda roles: layer_grade(grading, plan, settings, roles)) if grading else None
+            plan.prepared = Prepared(dict(zip(paths, range(len(paths)))), format_bodies(paths, area, grade))
     elif len(packed.roles):
+        grade = layer_grade(grading, plan, settings, packed.roles.astype(np.int64))
         packed.data = format_packed(packed.points, np.diff(packed.offsets).astype(np.int64), packed.closed,
-                                    packed.widths, packed.heights, area)
+                                    packed.widths, packed.heights, area, grade)
         packed.rows = np.arange(len(packed.roles), dtype=np.int32)
 
 
@@ -452,6 +556,9 @@ class GcodeWriter:
         materials: the design's materials in channel order, for the colors of the
             settings block at the end (:mod:`.prusa_config`; default colors without them).
         now: the time stamp of the first line (default: the current UTC time).
+        grading: the design's instantaneous attributes
+            (:class:`~fgslice.machine.grading.SegmentGrading`) for the paths it formats
+            itself; None for none.
     """
 
     def __init__(
@@ -465,8 +572,12 @@ class GcodeWriter:
         thumbnails: Iterable[tuple[bytes, int, int]] = (),
         materials: Sequence[Material] = (),
         now: datetime | None = None,
+        grading=None,
     ) -> None:
         self.out = out
+        self.grading = grading
+        self._fan_pwm: int | None = None  # the last M106 S written (graded fan only)
+        self._commanded: dict[str, list[float]] = {}
         self.settings = settings
         self.palette = palette
         self.dialect = dialect
@@ -503,6 +614,12 @@ class GcodeWriter:
         self._feed_tables: dict[bool, tuple[np.ndarray, np.ndarray]] = {}
 
     # -- header ---------------------------------------------------------------------
+    def recorded_settings(self) -> dict[str, object]:
+        """The settings the file records (header and settings block), by name: all of them
+        but the attribute-grading ones when the design grades no instantaneous attribute."""
+        unused = () if self.grading is not None else GRADING_SETTINGS
+        return {k: v for k, v in self.settings.as_dict().items() if k not in unused}
+
     def write_header(self) -> None:
         """The first line, thumbnails, comments, settings, palette and start G-code."""
         s = self.settings
@@ -511,7 +628,7 @@ class GcodeWriter:
         text = "\n".join(lines) + "\n"
         text += "".join(thumbnail_block(png, w, h) for png, w, h in self.thumbnails)
         lines = [""] + [f"; {k} = {one_line(v)}" for k, v in self.comments.items()]
-        lines += [f"; {k} = {one_line(v)}" for k, v in s.as_dict().items()]
+        lines += [f"; {k} = {one_line(v)}" for k, v in self.recorded_settings().items()]
         lines.append(f"; palette = {self.palette.size} colors of {self.palette.n_materials} materials, dialect {self.dialect.name}")
         lines += [
             f"; color {c} = {self.palette.label(c)} : {self.dialect.describe(c)}" for c in range(self.palette.size)
@@ -540,14 +657,16 @@ class GcodeWriter:
         self._time_s += abs(plan.z - self._z) / s.z_speed
         self._z = plan.z
         if not self._fan_on and plan.index >= s.fan_off_layers and s.fan_speed > 0:
-            parts.append(f"M106 S{int(round(s.fan_speed * 2.55))}\n")
             self._fan_on = True
+            if self.grading is None or "fan" not in self.grading.active(plan.index):  # else the paths set it
+                parts.append(f"M106 S{int(round(s.fan_speed * 2.55))}\n")
+                self._fan_pwm = int(round(s.fan_speed * 2.55))
 
         layer = _LayerPaths.of(plan)
         if layer.n:
             at, texts, colors = self._state_changes_before(layer)
             trailing: list[str] = []
-            parts.extend(self._write_paths(layer, at, texts, colors, plan.index, trailing))
+            parts.extend(self._write_paths(layer, at, texts, colors, plan, trailing))
             pending = "".join(trailing)
         else:
             pending = "".join(self._set_state(c) for c in layer.states)
@@ -602,11 +721,7 @@ class GcodeWriter:
         known = self._feed_tables.get(first_layer)
         if known is not None:
             return known
-        s = self.settings
-        by_role = np.full(len(ROLES), s.first_layer_speed if first_layer else s.print_speed)
-        if not first_layer:
-            by_role[ROLE_CODE[Role.EXTERNAL_PERIMETER]] = s.outer_wall_speed
-            by_role[ROLE_CODE[Role.INTERNAL_INFILL]] = s.infill_speed
+        by_role = role_speeds(self.settings, first_layer)
         known = self._feed_tables[first_layer] = (
             by_role, _text_table([f"G1 F{fmt(f * 60, 1)}\n" for f in by_role.tolist()] + [""]))
         return known
@@ -616,14 +731,17 @@ class GcodeWriter:
         s = self.settings
         return f"G1 E{fmt(sign * s.retract_length, 5)} F{fmt(s.retract_speed * 60, 1)}\n"
 
-    def _bodies(self, layer: "_LayerPaths") -> tuple[PathBodies, np.ndarray, str]:
+    def _bodies(self, layer: "_LayerPaths", plan: LayerPlan) -> tuple[PathBodies, np.ndarray, str]:
         """The bodies of the layer's paths: the prepared ones, the others formatted now
         (all in bulk when none is prepared; else one by one, reused by path or by
         geometry: purge lines repeat from layer to layer); returns the bodies, each
         path's row in them and the text the rows' bounds index."""
         rows, data = layer.rows, layer.data
+        graded = None
+        if self.grading is not None and self.grading.active(plan.index):
+            graded = lambda roles: layer_grade(self.grading, plan, self.settings, roles)  # noqa: E731
         if data is None:
-            fresh = format_bodies(layer.missing, self.filament_area)
+            fresh = format_bodies(layer.missing, self.filament_area, graded)
             return fresh, np.arange(layer.n), fresh.text
         missing = np.flatnonzero(rows < 0)
         if not len(missing):
@@ -635,16 +753,18 @@ class GcodeWriter:
         todo = [p for p in layer.missing if p not in by_path]
         if todo:
             keys = [(p.points.tobytes(), p.closed, p.width, p.height) for p in todo]
+            if graded:  # graded moves depend on the role and the height too
+                keys = [(*key, p.role, plan.z) for key, p in zip(keys, todo)]
             new = {k: p for k, p in zip(keys, todo) if k not in made}
             if new:
-                fresh = format_bodies(list(new.values()), self.filament_area)
+                fresh = format_bodies(list(new.values()), self.filament_area, graded)
                 cuts = fresh.bounds.tolist()
                 columns = zip(fresh.start.tolist(), fresh.end.tolist(), fresh.low.tolist(), fresh.high.tolist(),
-                              fresh.e.tolist(), fresh.length.tolist())
+                              fresh.e.tolist(), fresh.length.tolist(), *(_graded_rows(fresh) if graded else ()))
                 for key, a, b, row in zip(new, cuts[:-1], cuts[1:], columns):
                     made[key] = (fresh.text[a:b], *row)
             by_path.update(zip(todo, map(made.__getitem__, keys)))
-        texts, start, end, low, high, e, length = zip(*map(by_path.__getitem__, layer.missing))
+        texts, start, end, low, high, e, length, *extra = zip(*map(by_path.__getitem__, layer.missing))
         sizes = np.fromiter(map(len, texts), dtype=np.int64, count=len(texts))
         old = data
         rows = rows.copy()
@@ -659,6 +779,8 @@ class GcodeWriter:
             e=np.concatenate([old.e, e]),
             length=np.concatenate([old.length, length]),
         )
+        if graded:
+            _join_graded(joined, old, extra)
         return joined, rows, old.text + "".join(texts)
 
     def _write_paths(
@@ -667,7 +789,7 @@ class GcodeWriter:
         at: np.ndarray,
         texts: list[str],
         colors: np.ndarray,
-        layer_index: int,
+        plan: LayerPlan,
         trailing: list[str],
     ) -> list[str]:
         """The text of a layer's paths: their bodies (:meth:`_bodies`), travels,
@@ -680,7 +802,8 @@ class GcodeWriter:
         travel starts from an unknown position.
         """
         s = self.settings
-        bodies, rows, text = self._bodies(layer)
+        layer_index = plan.index
+        bodies, rows, text = self._bodies(layer, plan)
         is_printed = bodies.length[rows] > 0
         printed = np.flatnonzero(is_printed)
         n = len(printed)
@@ -728,12 +851,19 @@ class GcodeWriter:
         pieces[1::2] = [text[a:b] for a, b in zip(bodies.bounds[rows].tolist(), bodies.bounds[rows + 1].tolist())]
         for k, change in changes.items():
             pieces[2 * k] = change + pieces[2 * k]
+        if bodies.fan is not None:
+            self._command_fan(bodies.fan[rows], pieces)
+        for name, ranges in (bodies.commanded or {}).items():
+            low_high = self._commanded.setdefault(name, [np.inf, -np.inf])
+            low_high[0] = min(low_high[0], float(np.nanmin(ranges[rows, 0], initial=np.inf)))
+            low_high[1] = max(low_high[1], float(np.nanmax(ranges[rows, 1], initial=-np.inf)))
 
         n_retract, n_hop = int(retract.sum()), int(hop.sum())
         self._retractions += n_retract
         self._time_s += (n_retract + int(retracted.sum())) * s.retract_length / s.retract_speed
         self._time_s += n_hop * 2 * s.z_hop / s.z_speed
-        self._time_s += float(dist.sum()) / s.travel_speed + float(np.sum(bodies.length[rows] / feeds))
+        paced = bodies.length if bodies.paced is None else bodies.paced
+        self._time_s += float(dist.sum()) / s.travel_speed + float(np.sum(paced[rows] / feeds))
         self._travel_mm += float(dist.sum())
         filament = bodies.e[rows]
         self._e_written += float(filament.sum())
@@ -749,6 +879,19 @@ class GcodeWriter:
         self._retracted = False
         self._extruded = True
         return pieces
+
+    def _command_fan(self, fan: np.ndarray, pieces: list[str]) -> None:
+        """Put an ``M106 S`` before the body of each printed path (``fan`` ``(n, 2)``, see
+        :attr:`PathBodies.fan`) that starts at another fan than the print is at."""
+        n = len(fan)
+        sets = fan[:, 1] >= 0
+        latest = np.maximum.accumulate(np.where(sets, np.arange(n), -1))
+        current = -2 if self._fan_pwm is None else self._fan_pwm
+        before = np.concatenate([[current], np.where(latest[:-1] >= 0, fan[np.maximum(latest[:-1], 0), 1], current)])
+        for k in np.flatnonzero((fan[:, 0] >= 0) & (fan[:, 0] != before)).tolist():
+            pieces[2 * k + 1] = f"M106 S{int(fan[k, 0])}\n" + pieces[2 * k + 1]
+        if sets.any():
+            self._fan_pwm = int(fan[latest[-1], 1])
 
     def _headers(
         self,
@@ -801,7 +944,8 @@ class GcodeWriter:
             f"; state changes = {self._state_changes}",
             f"; estimated printing time (normal mode) = {format_duration(self._time_s)}",
             *footer_block(s, self.palette, self.materials, version=fgslice_version(),
-                          state_changes=self._state_changes, colors_used=sorted(self._colors_used)),
+                          state_changes=self._state_changes, colors_used=sorted(self._colors_used),
+                          recorded=self.recorded_settings()),
             "",
         ]
         self.out.write("\n".join(footer))
@@ -827,7 +971,35 @@ class GcodeWriter:
             "filament_mm": filament_mm,
             "filament_g": extruded * grams_per_mm3,
             "warnings": warnings,
+            **({"attributes": {k: v for k, v in self._commanded.items() if v[0] <= v[1]}} if self._commanded else {}),
         }
+
+
+def _graded_rows(bodies: PathBodies) -> list[list]:
+    """The graded columns of ``bodies`` as one list per column, a row per path: paced
+    length, fan ``(start, end)``, then each commanded range (for the writer's cache)."""
+    n = len(bodies.e)
+    paced = bodies.length if bodies.paced is None else bodies.paced
+    fan = np.full((n, 2), -1) if bodies.fan is None else bodies.fan
+    return [paced.tolist(), fan.tolist(), [dict(zip(bodies.commanded or {}, r))
+                                           for r in zip(*(v.tolist() for v in (bodies.commanded or {}).values()))]
+            if bodies.commanded else [{}] * n]
+
+
+def _join_graded(joined: PathBodies, old: PathBodies, extra: list[tuple]) -> None:
+    """Set the graded columns of ``joined``: ``old``'s rows, then the rows ``extra``
+    (paced lengths, fans, commanded ranges: the columns of :func:`_graded_rows`)."""
+    paced, fan, commanded = extra
+    n = len(old.e)
+    joined.paced = np.concatenate([old.length if old.paced is None else old.paced, paced])
+    joined.fan = np.concatenate([np.full((n, 2), -1) if old.fan is None else old.fan,
+                                 np.array(fan, dtype=np.int64).reshape(-1, 2)])
+    names = set(old.commanded or {}).union(*map(set, commanded))
+    joined.commanded = {
+        name: np.concatenate([(old.commanded or {}).get(name, np.full((n, 2), np.nan)),
+                              np.array([r.get(name, [np.nan, np.nan]) for r in commanded]).reshape(-1, 2)])
+        for name in names
+    }
 
 
 def one_line(value: object) -> str:

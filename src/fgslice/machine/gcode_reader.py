@@ -136,6 +136,13 @@ class GcodeProgram:
         flows = np.array([s.flow for s in self.states], dtype=float)
         return flows[self.state]
 
+    def fan_of_moves(self) -> np.ndarray:
+        """(M,) part fan (percent, ``M106 S`` / 2.55; 0 before any fan command) each move
+        was printed with."""
+        lines = np.array([f.line for f in self.fans], dtype=np.int64)
+        pwm = np.array([0.0] + [f.values.get("S", 255.0) for f in self.fans])
+        return pwm[np.searchsorted(lines, self.line)] / 2.55
+
     def color_of_moves(self) -> np.ndarray:
         """(M,) palette color of each move from ``;STATE:`` comments (-1 if none)."""
         colors = np.array([-1 if s.color is None else s.color for s in self.states], dtype=np.int64)

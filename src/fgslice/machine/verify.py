@@ -20,7 +20,8 @@
   on other dialects;
 * mixes: ``M165`` factors outside [0, 1], not summing to 1 within ``MIX_SUM_TOLERANCE``,
   or set on a channel the machine lacks; ``M163`` factors outside [0, 1] or channels
-  it lacks; ``M42`` values outside 0..255.
+  it lacks; ``M42`` values outside 0..255;
+* ``M106`` fan values outside 0..255.
 
 Consecutive faulty moves of one kind are reported once, at the first line, with the
 number of moves and the last line (also when the run spans chunks of a streamed file).
@@ -212,6 +213,10 @@ def _check_events(program: GcodeProgram, settings: Settings) -> list[Fault]:
         s = o.values.get("S")
         if s is not None and not 0 <= s <= 255:
             faults.append(Fault(o.line, f"M42: value {s:g} is outside 0..255"))
+    for f in program.fans:
+        s = f.values.get("S")
+        if s is not None and not 0 <= s <= 255:
+            faults.append(Fault(f.line, f"M106: fan {s:g} is outside 0..255"))
     return faults
 
 

@@ -170,13 +170,25 @@ def layer_keys(program, colors: StateColors, layer: int) -> np.ndarray:
 
 
 def draw_layer(ax, printout: Printout, colors: StateColors, layer: int, px_per_mm: float,
-               *, show_travel: bool = False, default_width: float = DEFAULT_WIDTH_MM) -> None:
+               *, show_travel: bool = False, default_width: float = DEFAULT_WIDTH_MM,
+               values: np.ndarray | None = None, norm: Normalize | None = None) -> None:
     """Draw ``layer``'s extrusions (real width) on ``ax`` laid out at ``px_per_mm``
-    (their states' legend keys: :func:`layer_keys`)."""
+    (their states' legend keys: :func:`layer_keys`); with ``values`` (one per move,
+    :func:`fgslice.preview.attributes.move_values`) each move is colored by its value on
+    :data:`ATTRIBUTE_CMAP` scaled by ``norm`` instead of by its state.
+    """
     program = printout.program
     on_layer = program.layer == layer
     moves = _extrusions(program, layer)
-    lines, firsts = _runs(program, moves)
+    if values is not None:
+        from matplotlib import colormaps
+
+        lines, firsts = list(np.stack([program.start[moves, :2], program.end[moves, :2]], axis=1)), moves
+        rgba = colormaps[ATTRIBUTE_CMAP](norm(values[moves]))
+        rgba[~np.isfinite(values[moves])] = UNKNOWN_RGBA
+    else:
+        lines, firsts = _runs(program, moves)
+        rgba = colors.rgba[program.state[firsts]]
     widths_mm = np.nan_to_num(program.width[firsts], nan=default_width)
     if show_travel:
         travel = np.flatnonzero(on_layer & (program.e <= 0) & (program.length > 0))
@@ -186,13 +198,54 @@ def draw_layer(ax, printout: Printout, colors: StateColors, layer: int, px_per_m
     if lines:
         ax.add_collection(LineCollection(
             lines,
-            colors=colors.rgba[program.state[firsts]],
+            colors=rgba,
             linewidths=widths_mm * px_per_mm * 72.0 / DPI,
             capstyle="round",
             joinstyle="round",
             antialiased=True,
             zorder=2,
         ))
+
+
+ATTRIBUTE_CMAP = "viridis"
+"""Colormap of layers colored by a process attribute."""
+
+
+def _colorbar(fig: Figure, norm: Normalize, cmap: str, label: str, size: tuple[int, int],
+              rows: tuple[float, float]) -> float:
+    """A colorbar of ``cmap`` over ``norm`` at the right edge of the picture, in the pixel
+    rows ``(bottom, height)``; returns its width in pixels with its label."""
+    from matplotlib import colormaps
+    from matplotlib.cm import ScalarMappable
+
+    w, h = size
+    bottom, height = rows
+    cax = fig.add_axes(((w - COLORBAR_PX) / w, (bottom + 0.1 * height) / h, 18 / w, 0.8 * height / h))
+    fig.colorbar(ScalarMappable(norm, colormaps[cmap]), cax=cax, label=label)
+    return w - cax.get_tightbbox(FigureCanvasAgg(fig).get_renderer()).x0 + LEGEND_PAD_PX
+
+
+def _attribute_image(design: Design, placement: Placement, name: str, norm: Normalize, bounds: Sequence[float],
+                     z: float, shape: tuple[int, int]) -> np.ndarray:
+    """``(ny, nx, 4)`` RGBA of the design's attribute ``name`` at bed height ``z``
+    (transparent outside the part and where no attribute covers it)."""
+    from matplotlib import colormaps
+
+    from fgslice.design.attributes import attribute_fields
+
+    x0, y0, x1, y1 = bounds
+    ny, nx = shape
+    xs = x0 + (np.arange(nx) + 0.5) * (x1 - x0) / nx
+    ys = y0 + (np.arange(ny) + 0.5) * (y1 - y0) / ny
+    dx, dy, dz = placement.to_design(xs[None, :], ys[:, None], z)
+    fields = attribute_fields(design)
+    values = (fields.values(name, dx, dy, dz) if fields is not None and name in fields.names
+              else np.full((ny, nx), np.nan))
+    values = np.broadcast_to(values, (ny, nx))
+    shown = np.broadcast_to(np.asarray(design.sdf(dx, dy, dz)) <= 0, (ny, nx)) & np.isfinite(values)
+    image = np.zeros((ny, nx, 4))
+    image[shown] = colormaps[ATTRIBUTE_CMAP](norm(values[shown]))
+    return image
 
 
 def _legend(fig: Figure, colors: StateColors, keys: np.ndarray, size: tuple[int, int], rows: tuple[float, float]) -> float:
@@ -203,13 +256,7 @@ def _legend(fig: Figure, colors: StateColors, keys: np.ndarray, size: tuple[int,
     bottom, height = rows
     renderer = FigureCanvasAgg(fig).get_renderer()
     if colors.mode == "temperature":
-        from matplotlib import colormaps
-        from matplotlib.cm import ScalarMappable
-
-        cax = fig.add_axes(((w - COLORBAR_PX) / w, (bottom + 0.1 * height) / h, 18 / w, 0.8 * height / h))
-        mappable = ScalarMappable(Normalize(*colors.value_range), colormaps[TEMPERATURE_CMAP])
-        fig.colorbar(mappable, cax=cax, label="nozzle target (degC)")
-        return w - cax.get_tightbbox(renderer).x0 + LEGEND_PAD_PX
+        return _colorbar(fig, Normalize(*colors.value_range), TEMPERATURE_CMAP, "nozzle target (degC)", size, rows)
     known = [int(k) for k in keys if k >= 0 and int(k) in colors.labels]
     if len(known) > MAX_LEGEND:
         known = [known[i] for i in np.linspace(0, len(known) - 1, MAX_LEGEND).round().astype(int)]
@@ -271,11 +318,15 @@ def _check_size(size: tuple[int, int]) -> tuple[int, int]:
 
 
 def layer_figure(source, layer: int, *, design: Design | None = None, placement: Placement | None = None,
-                 show_travel: bool = False, size: tuple[int, int] = (1200, 900)):
+                 show_travel: bool = False, size: tuple[int, int] = (1200, 900), attribute: str | None = None):
     """The figure of one layer and its toolpath axes (bed mm to pixels: ``ax.transData``).
 
     See :func:`render_layer` for the arguments.
     """
+    if attribute is not None:
+        from fgslice.design.attributes import canonical_name
+
+        attribute = canonical_name(attribute)
     printout = load_printout(source)
     program = printout.program
     check_layer(program, layer)
@@ -286,12 +337,23 @@ def layer_figure(source, layer: int, *, design: Design | None = None, placement:
     m = MARGIN_PX
     fig = Figure(figsize=(w / DPI, h / DPI), dpi=DPI, facecolor=FIGURE_COLOR)
     rows = (m["bottom"], h - m["bottom"] - m["top"])
-    legend_px = _legend(fig, colors, layer_keys(program, colors, layer), size, rows)
+    values = norm = None
+    if attribute is None:
+        legend_px = _legend(fig, colors, layer_keys(program, colors, layer), size, rows)
+    else:
+        from fgslice.design.attributes import UNITS
+        from fgslice.preview.attributes import move_values, value_range
+
+        located = _placement(printout, placement) if design is not None else None
+        values = move_values(printout, attribute, design, located)
+        norm = Normalize(*value_range(values))
+        legend_px = _colorbar(fig, norm, ATTRIBUTE_CMAP, f"{attribute} ({UNITS[attribute]})", size, rows)
     box = (m["left"], m["bottom"], w - m["left"] - legend_px - LEGEND_PAD_PX, rows[1])
     layout = plan_layout(bounds, box, 2 if design is not None else 1, m["gap"])
     ax = _axes(fig, layout.panels[0], bounds, size)
     default_width = float(printout.info.settings.get("bead_width", DEFAULT_WIDTH_MM))
-    draw_layer(ax, printout, colors, layer, layout.px_per_mm, show_travel=show_travel, default_width=default_width)
+    draw_layer(ax, printout, colors, layer, layout.px_per_mm, show_travel=show_travel,
+               default_width=default_width, values=values, norm=norm)
     ax.set_xlabel("X (mm)", fontsize=8)
     ax.set_ylabel("Y (mm)", fontsize=8)
     z_top, height = layer_z(program, layer)
@@ -302,18 +364,24 @@ def layer_figure(source, layer: int, *, design: Design | None = None, placement:
         z_mid = z_top - height / 2 if math.isfinite(z_top) else 0.0
         _, _, pw, ph = layout.panels[1]
         shape = (max(1, min(int(ph), MAX_FIELD_PX)), max(1, min(int(pw), MAX_FIELD_PX)))
-        image = _design_image(design, _placement(printout, placement), bounds, z_mid, shape)
+        if attribute is None:
+            image = _design_image(design, _placement(printout, placement), bounds, z_mid, shape)
+        else:
+            image = _attribute_image(design, _placement(printout, placement), attribute, norm, bounds, z_mid, shape)
         dax.imshow(image, origin="lower", extent=(bounds[0], bounds[2], bounds[1], bounds[3]),
                    interpolation="nearest", aspect="auto")
         dax.set_xlabel("X (mm)", fontsize=8)
-        dax.set_title(f"design field at z = {z_mid:g} mm", fontsize=10)
+        dax.set_title(f"design {attribute or 'field'} at z = {z_mid:g} mm", fontsize=10)
+    if attribute is not None:
+        ax.set_title(f"layer {layer} of {layer_count(program)}, {where}: {attribute} as commanded", fontsize=10)
     return fig, ax
 
 
 def layer_png(source, layer: int, *, design: Design | None = None, placement: Placement | None = None,
-              show_travel: bool = False, size: tuple[int, int] = (1200, 900)) -> bytes:
+              show_travel: bool = False, size: tuple[int, int] = (1200, 900), attribute: str | None = None) -> bytes:
     """PNG bytes of one layer (see :func:`render_layer`)."""
-    fig, _ = layer_figure(source, layer, design=design, placement=placement, show_travel=show_travel, size=size)
+    fig, _ = layer_figure(source, layer, design=design, placement=placement, show_travel=show_travel, size=size,
+                          attribute=attribute)
     return _png(fig)
 
 
@@ -323,7 +391,7 @@ def _write(path, data: bytes) -> None:
 
 
 def render_layer(program, layer: int, out_png, *, design: Design | None = None, placement: Placement | None = None,
-                 show_travel: bool = False, size: tuple[int, int] = (1200, 900)) -> None:
+                 show_travel: bool = False, size: tuple[int, int] = (1200, 900), attribute: str | None = None) -> None:
     """Write a PNG of one layer's toolpaths at real bead width, colored by state.
 
     Args:
@@ -336,13 +404,17 @@ def render_layer(program, layer: int, out_png, *, design: Design | None = None, 
         placement: design-to-bed translation; default the file's ``; placement_offset``.
         show_travel: draw travel moves as thin dashed lines.
         size: image ``(width, height)`` in pixels.
+        attribute: color the moves by this process attribute as commanded (fan, flow,
+            speed, temperature; infill_density from ``design``) on a colormap over its
+            range in the file, and draw the design's attribute field beside them.
 
     Raises:
         GcodeError: not G-code, no such layer, no extrusion, no placement for ``design``.
         OutputError: the output folder does not exist or cannot be written.
     """
     check_writable(out_png)
-    _write(out_png, layer_png(program, layer, design=design, placement=placement, show_travel=show_travel, size=size))
+    _write(out_png, layer_png(program, layer, design=design, placement=placement, show_travel=show_travel, size=size,
+                              attribute=attribute))
 
 
 def sheet_layers(program, count: int) -> list[int]:

@@ -7,6 +7,8 @@ the design there, so every stage samples the same field the same way.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from fgslice.design.base import Design
@@ -43,3 +45,17 @@ class BedField:
         """Signed distance (mm, negative inside) ``(N,)`` at bed points ``xy`` ``(N, 2)``, height ``z``."""
         x, y, zz = self._design_xyz(xy, z)
         return np.asarray(self.design.sdf(x, y, zz), dtype=float).reshape(len(x))
+
+    @functools.cached_property
+    def attributes(self):
+        """The design's process attributes
+        (:class:`~fgslice.design.attributes.AttributeFields`), None when it has none."""
+        from fgslice.design.attributes import attribute_fields
+
+        return attribute_fields(self.design)
+
+    def attribute(self, name: str, xy: np.ndarray, z: float) -> np.ndarray:
+        """Attribute ``name`` ``(N,)`` at bed points ``xy`` ``(N, 2)``, height ``z`` (mm);
+        NaN where no attribute of that name covers a point."""
+        x, y, zz = self._design_xyz(xy, z)
+        return self.attributes.values(name, x, y, zz)

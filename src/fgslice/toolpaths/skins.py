@@ -91,19 +91,23 @@ def split_inner(inner, outline, below: Sequence, above: Sequence, settings: Sett
     return InnerAreas(top, _minus(under_above, sparse), sparse)
 
 
-def fill_inner(areas: InnerAreas, layer_index: int, settings: Settings) -> list[Path]:
+def fill_inner(areas: InnerAreas, layer_index: int, settings: Settings, sparse=None) -> list[Path]:
     """Fill skins with 100 % rectilinear and the sparse area with the chosen pattern.
 
     Lines run at ``infill_angle`` on even layers and ``infill_angle + 90`` on odd ones;
     the rectilinear fills of a layer are computed together (:func:`rectilinear_many`).
+    ``sparse``: the sparse area as ``(region, density percent)`` pieces (a graded
+    density, :mod:`fgslice.toolpaths.graded_infill`); None: all at ``infill_density``.
     """
     w, h = settings.bead_width, settings.layer_height
     angle = settings.infill_angle + 90.0 * (layer_index % 2)
+    sparse = [(areas.sparse, settings.infill_density)] if sparse is None else sparse
     fills = [(areas.top, 100.0, Role.TOP_SOLID_INFILL), (areas.solid, 100.0, Role.SOLID_INFILL)]
     if settings.infill_pattern != "concentric":
-        fills.append((areas.sparse, settings.infill_density, Role.INTERNAL_INFILL))
+        fills += [(region, density, Role.INTERNAL_INFILL) for region, density in sparse]
     regions, densities, roles = zip(*fills)
     paths = rectilinear_many(regions, densities, angle, w, h, roles)
     if settings.infill_pattern == "concentric":
-        paths += concentric(areas.sparse, settings.infill_density, w, h, Role.INTERNAL_INFILL)
+        for region, density in sparse:
+            paths += concentric(region, density, w, h, Role.INTERNAL_INFILL)
     return paths

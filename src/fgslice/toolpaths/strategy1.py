@@ -23,6 +23,7 @@ import shapely
 
 from fgslice.settings import Settings
 from fgslice.slicing.layers import LayerRegions
+from fgslice.toolpaths.graded_infill import density_regions
 from fgslice.toolpaths.infill import uncovered_area
 from fgslice.toolpaths.paths import LayerPaths, Path
 from fgslice.toolpaths.simplify import simplify_paths
@@ -68,14 +69,16 @@ def layer_paths(
             :func:`~fgslice.toolpaths.walls.simplify_outline`).
         below, above: outlines of the ``bottom_layers`` layers below and ``top_layers``
             above, nearest first (fewer near the bottom/top of the part), simplified alike.
-        field: object with ``fractions(xy (N,2), z) -> (N, k)`` in the bed frame.
+        field: object with ``fractions(xy (N,2), z) -> (N, k)`` in the bed frame (and,
+            to grade the infill density, ``attributes`` and ``attribute(name, xy, z)``).
         palette: object with ``color_of``, ``zipper_neighbor`` and ``size``.
         settings: bead width, layer height, walls, skins, infill, zipper, tolerance.
     """
     w, h = settings.bead_width, settings.layer_height
     walls = make_walls(regions.outline, settings.walls, w, h, outer_first=settings.wall_order == "outer_first")
     areas = split_inner(walls.inner, regions.outline, below, above, settings)
-    raw = simplify_paths(walls.paths + fill_inner(areas, regions.index, settings), settings.gcode_resolution)
+    sparse = density_regions(areas.sparse, field, regions.z_plane, settings.infill_density)
+    raw = simplify_paths(walls.paths + fill_inner(areas, regions.index, settings, sparse), settings.gcode_resolution)
     cut = cut_by_color(raw, field, palette, regions.z_plane, regions.index, settings)
     out = LayerPaths(regions.index, regions.z, regions.height)
     out.paths = cut.paths

@@ -1,0 +1,174 @@
+"""Process attributes: fields of process parameters (fan, flow, speed, temperature,
+infill density) attached to parts of the design tree.
+
+``attribute(NAME, "EXPR") { ... }`` grades one process parameter over its children, as
+``fgrade`` grades materials: the expression is evaluated in the node's own frame (``d``
+is its children's signed distance), and at any point of the part the nearest enclosing
+attribute of that name decides (the children of a union own their points as for
+materials: the first child containing the point, else the nearest one; ``intersection``
+and ``difference`` take their first child's). Geometry and materials pass through
+unchanged. Where no attribute of a name encloses a point, the slice's settings decide.
+
+Units: ``temperature`` degrees Celsius; ``flow`` percent of the nominal extrusion;
+``fan`` percent; ``speed`` percent of each feature's speed; ``infill_density`` percent.
+``flow_rate`` (OpenVCAD's spelling) is read as ``flow``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from fgslice.design import nodes
+from fgslice.errors import DesignError, did_you_mean
+
+UNITS = {"temperature": "C", "flow": "%", "fan": "%", "speed": "%", "infill_density": "%"}
+"""Every attribute name with the unit of its values."""
+
+ALIASES = {"flow_rate": "flow"}
+"""Other spellings accepted for attribute names."""
+
+INSTANTANEOUS = ("fan", "flow", "speed")
+"""Attributes that take effect at once, written per extrusion segment."""
+
+
+def canonical_name(name: str, where: nodes.Where = nodes.NOWHERE) -> str:
+    """The attribute name ``name`` stands for (case-insensitive; aliases resolved)."""
+    key = str(name).strip().lower()
+    key = ALIASES.get(key, key)
+    if key not in UNITS:
+        known = list(UNITS) + list(ALIASES)
+        raise DesignError(
+            f"unknown attribute '{name}'",
+            hint=did_you_mean(key, known) or "attributes: " + ", ".join(known),
+            **where.error_kwargs(),
+        )
+    return key
+
+
+class Attribute(nodes.Node):
+    """``attribute(name, field) { children }``: the process parameter ``name`` graded by
+    ``field`` (this node's frame) over the children, which keep their geometry and
+    materials (several children act as their union)."""
+
+    kind = "attribute"
+
+    def __init__(self, name: str, field: nodes.Field, children: Sequence[nodes.Node], where: nodes.Where = nodes.NOWHERE) -> None:
+        super().__init__(children, where)
+        self.name = canonical_name(name, where)
+        self.field = field
+        self._body = self.children[0] if len(self.children) == 1 else nodes.Union(self.children, where)
+
+    # geometry is the children's, as an fgrade's
+    sdf = nodes.Fgrade.sdf
+    _bounds = nodes.Fgrade._bounds
+    _sections = nodes.Fgrade._sections
+
+    # materials are the children's, as under a transform
+    coordinate_free = nodes.Affine.coordinate_free
+    passes_context = nodes.Affine.passes_context
+
+    def raw(self, x, y, z, ctx, columns):
+        return self._body.raw(x, y, z, ctx, columns)
+
+    def values(self, x, y, z) -> np.ndarray:
+        """The field at points of this node's frame (1-D arrays), float64."""
+        d = self._body.sdf(x, y, z) if self.field.uses_d else None
+        return np.array(self.field(x, y, z, d), dtype=float)
+
+
+class AttributeFields:
+    """The attributes of a node tree, evaluated at points of the root's frame.
+
+    ``names`` lists the attribute names the tree uses, in the order they first appear.
+    :meth:`values` gives NaN where no attribute of the name encloses a point.
+    """
+
+    def __init__(self, root: nodes.Node) -> None:
+        self.root = root
+        self._below: dict[int, frozenset[str]] = {}
+        names: list[str] = []
+        for node, _ in nodes.walk(root):
+            if isinstance(node, Attribute) and node.name not in names:
+                names.append(node.name)
+        self.names = tuple(names)
+        self._collect(root)
+
+    def _collect(self, root: nodes.Node) -> None:
+        """For every node, the attribute names used in its subtree (post-order, no recursion)."""
+        order = [node for node, _ in nodes.walk(root)]
+        for node in reversed(order):
+            own = {node.name} if isinstance(node, Attribute) else set()
+            for child in node.children:
+                own |= self._below[id(child)]
+            self._below[id(node)] = frozenset(own)
+
+    def values(self, name: str, x, y, z) -> np.ndarray:
+        """Attribute ``name`` at points ``x, y, z`` (root frame, mm; broadcast, any shape);
+        NaN where no attribute of that name encloses the point."""
+        x, y, z = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (x, y, z)))
+        shape = x.shape
+        x, y, z = x.ravel(), y.ravel(), z.ravel()
+        out = np.empty(x.size)
+        for s in nodes._chunks(x.size):
+            out[s] = self._values(self.root, name, x[s], y[s], z[s], np.full(len(x[s]), np.nan))
+        return out.reshape(shape)
+
+    def _values(self, node: nodes.Node, name: str, x, y, z, ctx: np.ndarray) -> np.ndarray:
+        """The values at 1-D points of ``node``'s frame; ``ctx``: the enclosing attribute's."""
+        if isinstance(node, Attribute) and node.name == name:
+            ctx = node.values(x, y, z)
+        if name not in self._below[id(node)] or not node.children:
+            return ctx
+        if isinstance(node, nodes.Affine):
+            return self._values(node._body, name, *node.local(x, y, z), ctx)
+        children = node.children
+        if isinstance(node, (nodes.Intersection, nodes.Difference)) or len(children) == 1:
+            return self._values(children[0], name, x, y, z, ctx)
+        d = np.stack([np.broadcast_to(c.sdf(x, y, z), np.shape(x)) for c in children])
+        inside = d <= 0
+        owner = np.where(inside.any(axis=0), np.argmax(inside, axis=0), np.argmin(d, axis=0))
+        out = ctx.copy()
+        for i, child in enumerate(children):
+            sel = np.flatnonzero(owner == i)
+            if sel.size:
+                out[sel] = self._values(child, name, x[sel], y[sel], z[sel], ctx[sel])
+        return out
+
+
+def attribute_fields(design) -> AttributeFields | None:
+    """The attributes of ``design`` (a node tree), or None when it has none."""
+    root = getattr(design, "root", None)
+    if not isinstance(root, nodes.Node):
+        return None
+    fields = AttributeFields(root)
+    return fields if fields.names else None
+
+
+def limits(settings) -> dict[str, tuple[float, float]]:
+    """The machine's range of each attribute under ``settings``
+    (:class:`fgslice.settings.Settings`): temperature from ``min_extrude_temperature`` to
+    ``max_nozzle_temperature``; flow within ``min_flow_percent`` .. ``max_flow_percent``
+    and no more than ``max_cross_section_mm2`` allows for the bead; fan 0-100; speed from
+    1% to the share that brings the fastest feature to ``travel_speed``; infill density
+    0-100."""
+    fastest = max(settings.print_speed, settings.outer_wall_speed, settings.infill_speed, settings.first_layer_speed)
+    return {
+        "temperature": (settings.min_extrude_temperature, settings.max_nozzle_temperature),
+        "flow": (settings.min_flow_percent,
+                 min(settings.max_flow_percent, 100.0 * settings.max_cross_section_mm2 / settings.bead_area)),
+        "fan": (0.0, 100.0),
+        "speed": (1.0, 100.0 * settings.travel_speed / fastest),
+        "infill_density": (0.0, 100.0),
+    }
+
+
+def out_of_limits(name: str, low: float, high: float, settings) -> str | None:
+    """Why attribute ``name`` ranging ``low .. high`` exceeds the machine's limits
+    (:func:`limits`), with what to change; None when it fits."""
+    lo, hi = limits(settings)[name]
+    if low >= lo - 1e-9 and high <= hi + 1e-9:
+        return None
+    return (f"attribute '{name}' ranges {low:.4g} .. {high:.4g} {UNITS[name]} over the part, outside this "
+            f"machine's {lo:.4g} .. {hi:.4g} {UNITS[name]}: change the attribute's expression or the profile's limits")
