@@ -21,6 +21,7 @@ from fgslice.design import load_design
 from fgslice.errors import DesignError, DesignSyntaxError, MeshError
 from fgslice.pipeline import slice_to_gcode
 from fgslice.settings import load_settings
+from tests.conftest import EXAMPLES
 
 HEADER = "import pyvcad as pv\nimport pyvcad_rendering as viz\nmaterials = pv.default_materials\n"
 RED, BLUE = 'materials.id("red")', 'materials.id("blue")'
@@ -153,14 +154,30 @@ def test_the_issue_example_slices_to_its_volume_with_the_grade(tmp_path):
     assert extruded_mm3(design, tmp_path, "bar") == pytest.approx(40 * 20 * 3, rel=0.05)
 
 
+def test_the_example_script_is_the_example_design():
+    python = open_design(EXAMPLES / "cylinder_z_gradient.py")
+    text = open_design(EXAMPLES / "cylinder_z_gradient.vcad")
+    rng = np.random.default_rng(7)
+    x, y, z = rng.uniform(-16, 16, 2000), rng.uniform(-16, 16, 2000), rng.uniform(-1, 71, 2000)
+    np.testing.assert_allclose(python.sdf(x, y, z), text.sdf(x, y, z), atol=1e-9)
+    np.testing.assert_allclose(python.fractions(x, y, z), text.fractions(x, y, z), atol=1e-12)
+    assert [m.name for m in python.materials] == ["blue", "yellow"]
+
+
 def test_cli_slices_and_checks_a_script(tmp_path):
-    path = script(tmp_path, f"root = pv.Sphere(pv.Vec3(0, 0, 0), 4, {RED})")
+    path = script(tmp_path, f"""root = pv.FGrade(["x/8 + 0.5", "0.5 - x/8"], [{RED}, {BLUE}], True)
+        root.set_child(pv.Sphere(pv.Vec3(0, 0, 0), 4, 1))""")
     out = tmp_path / "ball.gcode"
     result = CliRunner().invoke(main, ["slice", str(path), "-o", str(out), "--jobs", "1"])
     assert result.exit_code == 0, result.output
     assert out.read_text().count("\n") > 100
     result = CliRunner().invoke(main, ["check", str(path)])
     assert result.exit_code == 0 and "red" in result.output
+    result = CliRunner().invoke(main, ["simulate", str(out), "--design", str(path)])
+    assert result.exit_code == 0 and "composition error mean" in result.output, result.output
+    png = tmp_path / "layer.png"
+    result = CliRunner().invoke(main, ["preview", str(out), "-o", str(png), "--design", str(path)])
+    assert result.exit_code == 0 and png.stat().st_size > 1000, result.output
     assert "pyvcad" not in sys.modules and "pyvcad_rendering" not in sys.modules
 
 

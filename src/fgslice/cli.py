@@ -306,7 +306,7 @@ def preview_command(gcode, output, layer, z, design_path, materials, travel, she
         return
     design = None
     if design_path:
-        from fgslice.design import load_design
+        from fgslice.compat import open_design as load_design
 
         design = load_design(design_path, materials)
     if z is not None:
