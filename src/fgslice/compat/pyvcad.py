@@ -253,9 +253,10 @@ def _overload(owner: str, args: tuple, forms: dict[int, str]) -> None:
 class RectPrism(_Leaf):
     """``RectPrism(center, size, material=1)``: a box of ``size`` centred on ``center``."""
 
-    def __init__(self, center=None, size=None, material=1) -> None:
-        center = (0.0, 0.0, 0.0) if center is None else _vec3("RectPrism", "center", center)
-        size = (1.0, 1.0, 1.0) if size is None else _vec3("RectPrism", "size", size)
+    def __init__(self, *args, **kwargs) -> None:
+        center, size, material = _bind("RectPrism", ("center", "size", "material"), args, kwargs,
+                                       {"center": Vec3(), "size": Vec3(1, 1, 1), "material": 1})
+        center, size = _vec3("RectPrism", "center", center), _vec3("RectPrism", "size", size)
         super().__init__(_centred(center, api.rectprism(size, material=_material("RectPrism", material))))
 
 
@@ -275,15 +276,20 @@ class Sphere(_Leaf):
 class Cylinder(_Leaf):
     """``Cylinder(center, radius, height, material=1)``: along Z, centred on ``center``."""
 
-    def __init__(self, center=None, radius=1.0, height=1.0, material=1) -> None:
-        center = (0.0, 0.0, 0.0) if center is None else _vec3("Cylinder", "center", center)
+    def __init__(self, *args, **kwargs) -> None:
+        center, radius, height, material = _bind(
+            "Cylinder", ("center", "radius", "height", "material"), args, kwargs,
+            {"center": Vec3(), "radius": 1.0, "height": 1.0, "material": 1})
+        center = _vec3("Cylinder", "center", center)
         super().__init__(_centred(center, api.cylinder(radius, height, _material("Cylinder", material))))
 
 
 class Strut(_Leaf):
     """``Strut(start, end, radius, material=1)``: a capsule around the segment."""
 
-    def __init__(self, start, end, radius, material=1) -> None:
+    def __init__(self, *args, **kwargs) -> None:
+        start, end, radius, material = _bind("Strut", ("start", "end", "radius", "material"), args, kwargs,
+                                             {"material": 1})
         a, b = _vec3("Strut", "start", start), _vec3("Strut", "end", end)
         super().__init__(api.strut(a, b, radius, _material("Strut", material)))
 
@@ -311,15 +317,17 @@ class Mesh(_Leaf):
 
 
 class Function(_Leaf):
-    """``Function(expression, material=1, min, max)``: inside where the expression is <= 0,
+    """``Function(function, material=1, min, max)``: inside where the function is <= 0,
     within the box from ``min`` to ``max``; both corners are required."""
 
-    def __init__(self, function, material=1, min=None, max=None) -> None:  # noqa: A002 (OpenVCAD's names)
+    def __init__(self, *args, **kwargs) -> None:
+        function, material, lo, hi = _bind("Function", ("function", "material", "min", "max"), args, kwargs,
+                                           {"material": 1, "min": None, "max": None})
         function = _field("Function", function, with_d=False)
-        if min is None or max is None:
-            raise DesignError("Function needs its bounding box: Function(expression, material, min, max)",
+        if lo is None or hi is None:
+            raise DesignError("Function needs its bounding box: Function(function, material, min, max)",
                               hint="give min and max as pyvcad.Vec3 corners (mm)")
-        lo, hi = _vec3("Function", "min", min), _vec3("Function", "max", max)
+        lo, hi = _vec3("Function", "min", lo), _vec3("Function", "max", hi)
         super().__init__(api.function(lo, hi, function, _material("Function", material)))
 
 
