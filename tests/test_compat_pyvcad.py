@@ -65,9 +65,16 @@ CASES = {
         root = pv.Union(False, [moved, pv.Translate(-4, 0, 0, pv.Sphere(pv.Vec3(0, 0, 0), 2, {BLUE}))])""",
         'union() { translate(3, -2, 1) { rectprism(6, 4, 3, "red"); } translate(-4, 0, 0) { sphere(2, "blue"); } }',
     ),
-    "Rotate about a point": (
+    "Rotate about a point, roll then yaw then pitch": (
         f"root = pv.Rotate(30, 20, 45, pv.Vec3(2, 1, 0), pv.RectPrism(pv.Vec3(2, 1, 0), pv.Vec3(10, 4, 3), {RED}))",
-        'translate(2, 1, 0) { rotate(30, 20, 45) { translate(-2, -1, 0) { translate(2, 1, 0) { rectprism(10, 4, 3, "red"); } } } }',
+        'translate(2, 1, 0) { rotate(30, 0, 0) { rotate(0, 20, 0) { rotate(0, 0, 45) { translate(-2, -1, 0) {'
+        ' translate(2, 1, 0) { rectprism(10, 4, 3, "red"); } } } } } }',
+    ),
+    "Rotate(angles) and Union of nodes (OpenVCAD 3)": (
+        f"""rod = pv.Cylinder(pv.Vec3(0, 0, 0), 1, 8, {RED})
+        root = pv.Union(rod, pv.Rotate(pv.Vec3(90, 0, 0), rod), pv.Rotate(0, 90, 0, rod))""",
+        'union() { cylinder(1, 8, "red"); rotate(90, 0, 0) { cylinder(1, 8, "red"); }'
+        ' rotate(0, 90, 0) { cylinder(1, 8, "red"); } }',
     ),
     "Scale": (
         f"root = pv.Scale(2, 1, 0.5, pv.Sphere(pv.Vec3(0, 0, 0), 3, {BLUE}))",
@@ -181,6 +188,13 @@ def test_cli_slices_and_checks_a_script(tmp_path):
     assert "pyvcad" not in sys.modules and "pyvcad_rendering" not in sys.modules
 
 
+def test_rotate_applies_roll_then_yaw_then_pitch(tmp_path):
+    # yaw 90 about Y leaves a point on +y where it is, then pitch 90 about X takes +y to +z
+    path = script(tmp_path, f"root = pv.Rotate(90, 90, 0, pv.Vec3(0, 0, 0), pv.Sphere(pv.Vec3(0, 5, 0), 1, {RED}))")
+    lo, hi = load_script(path).bounds()
+    np.testing.assert_allclose((np.add(lo, hi) / 2), (0, 0, 5), atol=1e-9)
+
+
 def test_export_wins_over_render_and_the_last_call_counts(tmp_path):
     path = script(tmp_path, f"""a = pv.Sphere(pv.Vec3(0, 0, 0), 1, {RED})
         b = pv.Sphere(pv.Vec3(0, 0, 0), 2, {RED})
@@ -216,7 +230,8 @@ def test_script_without_a_rendered_root_is_refused(tmp_path):
      "Sphere.bounding_box is not supported"),
     (f"root = pv.Union(2.0, False, [pv.Sphere(pv.Vec3(0, 0, 0), 1, {RED})])", 4, r"smooth blend \(k = 2\)"),
     ("import pyvcad_rendering as viz\n        viz.RenderFrame()", 5, "pyvcad_rendering.RenderFrame is not supported"),
-    ("root = pv.Translate(1, 2)", 4, r"Translate takes \(\) or \(x, y, z\) or \(x, y, z, child\), got 2"),
+    ("root = pv.Translate(1, 2)", 4, r"Translate takes \(\) or \(x, y, z\), then optionally the child, got 2"),
+    ("root = pv.Rotate(pv.Vec3(0, 0, 0), 5)", 4, r"Rotate takes .* \(angles: Vec3\) .*, got 2"),
     ("root = pv.FGrade(['x', '1-x'], [1, 2], False, pv.Sphere(pv.Vec3(0, 0, 0), 1))", 4,
      "materials must be a list of ids"),
     ("root = pv.Sphere(pv.Vec3(0, 0, 0), -1)", 4, "r must be positive"),

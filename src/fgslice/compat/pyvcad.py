@@ -5,7 +5,8 @@ A design script written for OpenVCAD imports this module as ``pyvcad`` (see
 turned into :mod:`fgslice.design.api` nodes when the rendered root is loaded:
 
 * primitives are centred on their ``center`` (mm); ``Cylinder`` stands along Z;
-* ``Rotate(pitch, yaw, roll, around)`` takes degrees and turns about ``around``;
+* ``Rotate(pitch, yaw, roll, around)`` takes degrees, applies roll (about Z), then yaw
+  (about Y), then pitch (about X), and turns about ``around``;
 * a material is an id from ``default_materials.id(name)``; any other integer (OpenVCAD's
   default id 1) leaves the primitive without a material of its own, so it takes the
   fractions of its enclosing ``FGrade`` (or the design's first material);
@@ -244,10 +245,11 @@ class _Leaf(Node):
         return self._node
 
 
-def _overload(owner: str, args: tuple, forms: dict[int, str]) -> None:
+def _overload(owner: str, args: tuple, forms: dict[int, str], then: str = "") -> None:
+    """A DesignError listing ``forms`` (argument count -> names) unless ``args`` fits one."""
     if len(args) not in forms:
         takes = " or ".join(f"({forms[n]})" for n in sorted(forms))
-        raise DesignError(f"{owner} takes {takes}, got {len(args)} arguments", hint=_DOCS)
+        raise DesignError(f"{owner} takes {takes}{then}, got {len(args)} arguments", hint=_DOCS)
 
 
 class RectPrism(_Leaf):
@@ -351,14 +353,17 @@ def _bind(owner: str, names: tuple[str, ...], args: tuple, kwargs: dict, default
 
 class _Children(Node):
     """Union / Intersection: ``()``, ``(flag)``, ``(flag, children)``, ``(k, flag)``,
-    ``(k, flag, children)``; a smoothing radius ``k`` must be 0, the distribution flag is
-    accepted (overlaps take the first child's materials), ``add_child`` adds one."""
+    ``(k, flag, children)`` or the children themselves (OpenVCAD 3); a smoothing radius
+    ``k`` must be 0, the distribution flag is accepted (overlaps take the first child's
+    materials), ``add_child`` adds one."""
 
     _make = None
 
     def __init__(self, *args) -> None:
         super().__init__()
         owner = type(self).__name__
+        if args and all(isinstance(a, Node) for a in args):
+            args = (False, args)
         if args and not isinstance(args[0], bool) and isinstance(args[0], numbers.Real):
             k, args = float(args[0]), args[1:]
             if k != 0:
@@ -433,11 +438,11 @@ class _Unary(Node):
 
     def __init__(self, owner: str, args: tuple, forms: dict[int, str]) -> None:
         super().__init__()
-        _overload(owner, args, forms)
         self._child = None
-        if len(args) == max(forms):
+        if args and isinstance(args[-1], Node):
             self.set_child(args[-1])
             args = args[:-1]
+        _overload(owner, args, forms, then=", then optionally the child")
         self._args = args
 
     def set_child(self, child) -> None:
@@ -458,7 +463,7 @@ class Translate(_Unary):
     """``Translate(x, y, z[, child])``: moves the child (mm)."""
 
     def __init__(self, *args) -> None:
-        super().__init__("Translate", args, {0: "", 3: "x, y, z", 4: "x, y, z, child"})
+        super().__init__("Translate", args, {0: "", 3: "x, y, z"})
         self._offset = _xyz("Translate", self._args, 0.0)
 
     def _apply(self, child: nodes.Node) -> nodes.Node:
@@ -469,7 +474,7 @@ class Scale(_Unary):
     """``Scale(x, y, z[, child])``: stretches the child by non-zero factors."""
 
     def __init__(self, *args) -> None:
-        super().__init__("Scale", args, {0: "", 3: "x, y, z", 4: "x, y, z, child"})
+        super().__init__("Scale", args, {0: "", 3: "x, y, z"})
         self._factors = _xyz("Scale", self._args, 1.0)
         if not all(self._factors):
             raise DesignError("Scale: factors must be non-zero")
@@ -479,25 +484,24 @@ class Scale(_Unary):
 
 
 class Rotate(_Unary):
-    """``Rotate(pitch, yaw, roll[, around][, child])``: degrees about X, Y, Z (fgslice's
-    ``rotate``) about the point ``around`` (default the origin)."""
+    """``Rotate(pitch, yaw, roll[, around][, child])`` or ``Rotate(Vec3(pitch, yaw, roll)[,
+    child])``: degrees about X, Y and Z, applied in OpenVCAD's order roll, then yaw, then
+    pitch (about the fixed axes), turning about the point ``around`` (default the origin)."""
 
     def __init__(self, *args) -> None:
-        if len(args) == 4 and not isinstance(args[3], Vec3):
-            raise DesignError("Rotate: the fourth argument is the point 'around' (a Vec3); "
-                              "give it before the child: Rotate(pitch, yaw, roll, around, child)")
-        super().__init__("Rotate", args, {0: "", 3: "pitch, yaw, roll", 4: "pitch, yaw, roll, around",
-                                          5: "pitch, yaw, roll, around, child"})
-        self._angles = tuple(_number("Rotate", a, v) for a, v in zip(("pitch", "yaw", "roll"), self._args[:3]))
+        super().__init__("Rotate", args, {0: "", 1: "angles: Vec3", 3: "pitch, yaw, roll",
+                                          4: "pitch, yaw, roll, around: Vec3"})
+        angles = _vec3("Rotate", "angles", self._args[0]) if len(self._args) == 1 else self._args[:3]
+        self._angles = tuple(_number("Rotate", a, v) for a, v in zip(("pitch", "yaw", "roll"), angles))
         self._around = _vec3("Rotate", "around", self._args[3]) if len(self._args) == 4 else (0.0, 0.0, 0.0)
 
     def _apply(self, child: nodes.Node) -> nodes.Node:
-        if not any(self._angles):
-            return child
-        if not any(self._around):
-            return api.rotate(self._angles, child)
-        back = tuple(-v for v in self._around)
-        return api.translate(self._around, api.rotate(self._angles, api.translate(back, child)))
+        pitch, yaw, roll = self._angles
+        turned = child if not any(self._around) else api.translate(tuple(-v for v in self._around), child)
+        for angles in ((0.0, 0.0, roll), (0.0, yaw, 0.0), (pitch, 0.0, 0.0)):
+            if any(angles):
+                turned = api.rotate(angles, turned)
+        return turned if not any(self._around) else api.translate(self._around, turned)
 
 
 class FGrade(_Unary):
@@ -506,8 +510,7 @@ class FGrade(_Unary):
     ``default_materials.id``). Both modes give the continuous fractions."""
 
     def __init__(self, *args) -> None:
-        super().__init__("FGrade", args, {3: "functions, materials, prob_mode",
-                                          4: "functions, materials, prob_mode, child"})
+        super().__init__("FGrade", args, {3: "functions, materials, prob_mode"})
         functions, materials, prob_mode = self._args
         if isinstance(functions, str) or not isinstance(functions, Sequence):
             raise DesignError(f"FGrade: functions must be a list of expression strings, got {functions!r}")
