@@ -7,6 +7,7 @@ import math
 import subprocess
 import sys
 import textwrap
+import types
 
 import numpy as np
 import pytest
@@ -77,8 +78,9 @@ CASES = {
         ' rotate(0, 90, 0) { cylinder(1, 8, "red"); } }',
     ),
     "Scale": (
-        f"root = pv.Scale(2, 1, 0.5, pv.Sphere(pv.Vec3(0, 0, 0), 3, {BLUE}))",
-        'scale(2, 1, 0.5) { sphere(3, "blue"); }',
+        f"root = pv.Union(0.0, [pv.Scale(2, 1, 0.5, pv.Sphere(pv.Vec3(0, 0, 0), 3, {BLUE})),"
+        f" pv.Scale(1.5, pv.Sphere(pv.Vec3(0, 0, 5), 1, {RED}))])",
+        'union() { scale(2, 1, 0.5) { sphere(3, "blue"); } scale(1.5) { translate(0, 0, 5) { sphere(1, "red"); } } }',
     ),
     "FGrade(set_child) over an ungraded child": (
         f"""bar = pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(20, 10, 4), 1)
@@ -236,6 +238,7 @@ def test_script_without_a_rendered_root_is_refused(tmp_path):
      "materials must be a list of ids"),
     ("root = pv.Sphere(pv.Vec3(0, 0, 0), -1)", 4, "r must be positive"),
     ("root = pv.Union()", 4, "Union has no children"),
+    (f"root = pv.Union(False, [pv.Sphere(pv.Vec3(0, 0, 0), 1, {RED})], 3)", 4, r"Union takes \(\[k\]"),
 ])
 def test_what_is_outside_the_subset_is_named_at_its_line(tmp_path, body, line, message):
     path = script(tmp_path, body)
@@ -323,6 +326,14 @@ def test_sibling_modules_import_and_resources_path_finds_the_checkout(tmp_path):
     assert design.bounds()[1][0] == pytest.approx(7)
     assert "sizes" in sys.modules and str(folder) not in sys.path
     sys.modules.pop("sizes")
+
+
+def test_a_pyvcad_module_already_imported_is_put_back(tmp_path, monkeypatch):
+    real = types.ModuleType("pyvcad")
+    monkeypatch.setitem(sys.modules, "pyvcad", real)
+    path = script(tmp_path, f"root = pv.Sphere(pv.Vec3(0, 0, 0), 2, {RED})")
+    assert load_script(path).bounds()[1] == pytest.approx((2, 2, 2))
+    assert sys.modules["pyvcad"] is real and "pyvcad_rendering" not in sys.modules
 
 
 def test_render_outside_a_script_run_says_how_to_run_it():

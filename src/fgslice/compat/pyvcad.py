@@ -352,10 +352,9 @@ def _bind(owner: str, names: tuple[str, ...], args: tuple, kwargs: dict, default
 
 
 class _Children(Node):
-    """Union / Intersection: ``()``, ``(flag)``, ``(flag, children)``, ``(k, flag)``,
-    ``(k, flag, children)`` or the children themselves (OpenVCAD 3); a smoothing radius
-    ``k`` must be 0, the distribution flag is accepted (overlaps take the first child's
-    materials), ``add_child`` adds one."""
+    """Union / Intersection: ``([k][, flag][, [children]])`` or the children themselves
+    (OpenVCAD 3). A smoothing radius ``k`` must be 0; the distribution flag is accepted
+    (overlaps take the first child's materials); ``add_child`` adds one child."""
 
     _make = None
 
@@ -363,17 +362,18 @@ class _Children(Node):
         super().__init__()
         owner = type(self).__name__
         if args and all(isinstance(a, Node) for a in args):
-            args = (False, args)
-        if args and not isinstance(args[0], bool) and isinstance(args[0], numbers.Real):
-            k, args = float(args[0]), args[1:]
+            args = (list(args),)
+        rest = list(args)
+        if rest and not isinstance(rest[0], bool) and isinstance(rest[0], numbers.Real):
+            k = float(rest.pop(0))
             if k != 0:
                 raise DesignError(f"{owner}: a smooth blend (k = {k:g}) is not supported by fgslice",
                                   hint=f"use k = 0, or {owner}(False, [children])")
-        if len(args) > 2 or (args and not isinstance(args[0], bool)):
-            raise DesignError(f"{owner} takes (flag, [children]) or (k, flag, [children]), got {args!r}", hint=_DOCS)
-        children = args[1] if len(args) == 2 else []
-        if isinstance(children, Node) or not isinstance(children, Sequence):
-            raise DesignError(f"{owner}: children must be a list of nodes, got {children!r}")
+        if rest and isinstance(rest[0], bool):
+            rest.pop(0)
+        children = rest.pop(0) if rest and isinstance(rest[0], Sequence) and not isinstance(rest[0], str) else []
+        if rest:
+            raise DesignError(f"{owner} takes ([k][, flag][, [children]]) or nodes, got {args!r}", hint=_DOCS)
         self._children = []
         for child in children:
             self.add_child(child)
@@ -471,11 +471,12 @@ class Translate(_Unary):
 
 
 class Scale(_Unary):
-    """``Scale(x, y, z[, child])``: stretches the child by non-zero factors."""
+    """``Scale(x, y, z[, child])`` or ``Scale(factor[, child])`` (OpenVCAD 3): stretches
+    the child by non-zero factors."""
 
     def __init__(self, *args) -> None:
-        super().__init__("Scale", args, {0: "", 3: "x, y, z"})
-        self._factors = _xyz("Scale", self._args, 1.0)
+        super().__init__("Scale", args, {0: "", 1: "factor", 3: "x, y, z"})
+        self._factors = _xyz("Scale", self._args * 3 if len(self._args) == 1 else self._args, 1.0)
         if not all(self._factors):
             raise DesignError("Scale: factors must be non-zero")
 
