@@ -76,8 +76,8 @@ def _write_json(path: Path, data: dict) -> None:
 @click.option("--jobs", type=int, help="Worker processes (default: all cores).")
 @click.option("--scheduler", help="Run layers on a Dask scheduler at this address.")
 def slice_command(design, output, profile, strategy, colors, layer_height, sets, materials, stats_path, report_path, jobs, scheduler):
-    """Slice DESIGN (.vcad) to printer-ready G-code."""
-    from fgslice.design import load_design
+    """Slice DESIGN (.vcad, or an OpenVCAD .py script) to printer-ready G-code."""
+    from fgslice.compat import open_design as load_design
     from fgslice.output import check_writable
     from fgslice.pipeline import slice_to_gcode
     from fgslice.preview.thumbnails import parse_sizes, render_thumbnails
@@ -175,8 +175,9 @@ class _progress:
 @click.option("--profile", default=None, help="Machine profile whose limits the attributes must fit.")
 @click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="Override any setting (repeatable).")
 def check_command(design, materials, profile, sets):
-    """Load DESIGN and report its materials, size, attribute ranges and problems."""
-    from fgslice.design import check_design, format_report, load_design
+    """Load DESIGN (.vcad or an OpenVCAD .py script) and report its materials, size, attribute ranges and problems."""
+    from fgslice.compat import open_design as load_design
+    from fgslice.design import check_design, format_report
 
     report = check_design(load_design(design, materials), settings=_settings(profile, sets))
     click.echo(format_report(report))
@@ -232,7 +233,7 @@ def simulate_command(gcode, design_path, materials, profile, sets, melt_volume, 
     """Predict the composition GCODE really deposits and compare it with DESIGN."""
     from fgslice.analysis.fidelity import fidelity, plot_layer_error, simulation_stats
     from fgslice.analysis.simulate import simulate, simulation_settings
-    from fgslice.design import load_design
+    from fgslice.compat import open_design as load_design
     from fgslice.output import check_writable
     from fgslice.settings import parse_overrides
 
@@ -315,7 +316,7 @@ def preview_command(gcode, output, layer, z, design_path, materials, travel, she
         return
     design = None
     if design_path:
-        from fgslice.design import load_design
+        from fgslice.compat import open_design as load_design
 
         design = load_design(design_path, materials)
     if z is not None:

@@ -532,6 +532,12 @@ def parse_design(
 def load_design(path: str | Path, materials_file: str | Path | None = None) -> nodes.NodeDesign:
     """Read and parse the .vcad file at ``path`` (see :func:`parse_design`)."""
     path = Path(path)
+    return parse_design(read_design_text(path), file=path, materials=materials_file)
+
+
+def read_design_text(path: Path, hint: str = "a .vcad design is UTF-8 text") -> str:
+    """The text of the design file at ``path``; a clear error when it is missing,
+    unreadable or not UTF-8 (``hint`` says what the file should be)."""
     try:
         data = path.read_bytes()
     except FileNotFoundError:
@@ -539,11 +545,8 @@ def load_design(path: str | Path, materials_file: str | Path | None = None) -> n
     except OSError as exc:
         raise DesignError(f"cannot read design file: {exc.strerror}", file=path) from None
     try:
-        text = data.decode("utf-8-sig")
+        return data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         raise DesignSyntaxError(
-            f"the design is not a text file (invalid UTF-8 at byte {exc.start})",
-            file=path,
-            hint="a .vcad design is UTF-8 text",
+            f"the design is not a text file (invalid UTF-8 at byte {exc.start})", file=path, hint=hint
         ) from None
-    return parse_design(text, file=path, materials=materials_file)

@@ -1,0 +1,557 @@
+"""The subset of OpenVCAD's ``pyvcad`` module that OpenVCAD's example scripts use.
+
+A design script written for OpenVCAD imports this module as ``pyvcad`` (see
+:mod:`fgslice.compat.script`). Each class keeps OpenVCAD's signature and meaning and is
+turned into :mod:`fgslice.design.api` nodes when the rendered root is loaded:
+
+* primitives are centred on their ``center`` (mm); ``Cylinder`` stands along Z;
+* ``Rotate(pitch, yaw, roll, around)`` takes degrees, applies roll (about Z), then yaw
+  (about Y), then pitch (about X), and turns about ``around``;
+* a material is an id from ``default_materials.id(name)``; any other integer (OpenVCAD's
+  default id 1) leaves the primitive without a material of its own, so it takes the
+  fractions of its enclosing ``FGrade`` (or the design's first material);
+* ``FGrade`` fields are fgslice expressions (``docs/expressions.md``) or OpenVCAD's
+  Python functions ``f(x, y, z, rho, phic, r, theta, phis[, d])``, continuous in both of
+  OpenVCAD's modes.
+
+Names outside the subset raise a :class:`~fgslice.errors.DesignError` naming them.
+Nodes can be mutated (``add_child``, ``set_child``, ``set_left``) until the script ends,
+so they are converted when the design is built, by :func:`to_node`.
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+import numbers
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from fgslice.compat import context
+from fgslice.design import api, nodes
+from fgslice.design.expressions import combine_expressions, compile_expression
+from fgslice.design.language import resolve_mesh_path
+from fgslice.errors import DesignError, FgsliceError, MeshError
+
+_DOCS = "see the supported subset in docs/language.md"
+
+__all__ = [
+    "Vec3", "MaterialDefs", "default_materials", "resources_path",
+    "RectPrism", "Sphere", "Cylinder", "Strut", "Mesh", "Function",
+    "Union", "Intersection", "Difference", "Translate", "Rotate", "Scale", "FGrade",
+]
+
+
+def _unsupported(owner: str, name: str) -> DesignError:
+    return DesignError(f"{owner}.{name} is not supported by fgslice's pyvcad", hint=_DOCS)
+
+
+def __getattr__(name: str):
+    if name.startswith("__"):
+        raise AttributeError(name)
+    raise _unsupported("pyvcad", name)
+
+
+def _number(owner: str, what: str, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise DesignError(f"{owner}: {what} must be a number, got {value!r}", hint=_DOCS)
+    return float(value)
+
+
+class Vec3:
+    """A point or vector (mm): ``Vec3(x, y, z)``, with attributes ``x``, ``y``, ``z``."""
+
+    __slots__ = ("x", "y", "z")
+
+    def __init__(self, x=0.0, y=0.0, z=0.0) -> None:
+        self.x, self.y, self.z = (_number("Vec3", a, v) for a, v in zip("xyz", (x, y, z)))
+
+    def __iter__(self):
+        return iter((self.x, self.y, self.z))
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, Vec3) and tuple(self) == tuple(other)
+
+    __hash__ = None
+
+    def __repr__(self) -> str:
+        return f"Vec3({self.x:g}, {self.y:g}, {self.z:g})"
+
+    def __getattr__(self, name: str):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        raise _unsupported("Vec3", name)
+
+
+def _vec3(owner: str, what: str, value) -> tuple[float, float, float]:
+    if not isinstance(value, Vec3):
+        raise DesignError(f"{owner}: {what} must be a pyvcad.Vec3, got {value!r}", hint=_DOCS)
+    return tuple(value)
+
+
+class MaterialId(int):
+    """What ``default_materials.id(name)`` returns: an int that remembers the name."""
+
+    name: str
+
+    def __new__(cls, value: int, name: str):
+        self = super().__new__(cls, value)
+        self.name = name
+        return self
+
+    def __repr__(self) -> str:
+        return f"MaterialId({int(self)}, {self.name!r})"
+
+
+class MaterialDefs:
+    """OpenVCAD's material table: ``id(name)`` gives the id standing for ``name``.
+
+    Names are resolved by fgslice's material library when the design is built, so a name
+    it does not know (yet) is reported there, with the known names.
+    """
+
+    def __init__(self, *args) -> None:
+        if args:
+            raise DesignError(
+                "pyvcad.MaterialDefs(config file) is not supported by fgslice's pyvcad",
+                hint="use pyvcad.default_materials; add materials with fgslice's --materials FILE",
+            )
+        self._ids: dict[str, MaterialId] = {}
+
+    def __call__(self) -> MaterialDefs:
+        """``default_materials()``, as newer OpenVCAD scripts write it: the same table."""
+        return self
+
+    def id(self, name: str) -> MaterialId:
+        """The id of the material called ``name`` (case-insensitive)."""
+        if not isinstance(name, str):
+            raise DesignError(f"default_materials.id takes a material name, got {name!r}")
+        key = name.lower()
+        if key not in self._ids:
+            self._ids[key] = MaterialId(len(self._ids) + 1, key)
+        return self._ids[key]
+
+    def __getattr__(self, name: str):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        raise _unsupported("MaterialDefs", name)
+
+
+default_materials = MaterialDefs()
+
+
+def _material(owner: str, material) -> str | None:
+    if isinstance(material, MaterialId):
+        return material.name
+    if isinstance(material, numbers.Integral) and not isinstance(material, bool):
+        return None
+    raise DesignError(f"{owner}: a material is an id from default_materials.id(name), got {material!r}", hint=_DOCS)
+
+
+def resources_path() -> str:
+    """OpenVCAD's resource folder, with a trailing '/': the nearest folder above the
+    running script that holds an ``examples`` folder (an OpenVCAD checkout), else the
+    script's own folder."""
+    run = context.current()
+    start = run.path.resolve().parent if run else Path.cwd()
+    found = next((p for p in (start, *start.parents) if (p / "examples").is_dir()), start)
+    return str(found) + "/"
+
+
+@functools.cache
+def _derived():
+    """OpenVCAD's derived coordinates (rho, phic, r, theta, phis) as one compiled group."""
+    return combine_expressions([compile_expression(name) for name in ("rho", "phic", "r", "theta", "phis")])
+
+
+def _field(owner: str, function, *, with_d: bool):
+    """An expression string as it is, or OpenVCAD's point function
+    ``f(x, y, z, rho, phic, r, theta, phis[, d])`` as an fgslice field callable."""
+    if isinstance(function, str):
+        return function
+    if not callable(function):
+        raise DesignError(f"{owner}: a function is an expression string or a Python function, got {function!r}")
+    takes_d = with_d and _accepts(function, 9)
+    if not takes_d and not _accepts(function, 8):
+        raise DesignError(f"{owner}: a Python function takes (x, y, z, rho, phic, r, theta, phis"
+                          f"{', d' if with_d else ''}), '{getattr(function, '__name__', function)}' does not")
+    point = _PointFunction(function)
+    if takes_d:
+        return point
+
+    def without_d(x, y, z):
+        return point(x, y, z)
+
+    without_d.__name__ = point.__name__
+    return without_d
+
+
+def _accepts(function: Callable, count: int) -> bool:
+    try:
+        inspect.signature(function).bind(*range(count))
+    except (TypeError, ValueError):
+        return False
+    return True
+
+
+class _PointFunction:
+    """A Python function of OpenVCAD's coordinates evaluated on numpy arrays: called once
+    with whole arrays, or point by point when it only takes numbers (``math.sin``, ``if``)."""
+
+    def __init__(self, function: Callable) -> None:
+        self.function = function
+        self.__name__ = getattr(function, "__name__", "function")
+        self.per_point = False
+
+    def __call__(self, x, y, z, d=None) -> np.ndarray:
+        args = (x, y, z, *_derived()(x, y, z)) + (() if d is None else (d,))
+        if not self.per_point:
+            try:
+                return np.asarray(self.function(*args), dtype=float)
+            except (TypeError, ValueError):
+                self.per_point = True
+        return np.frompyfunc(self.function, len(args), 1)(*args).astype(float)
+
+
+class Node:
+    """Base of the pyvcad node classes: where it was made; unsupported methods fail by name."""
+
+    def __init__(self) -> None:
+        self._where = context.site()
+
+    def __getattr__(self, name: str):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        raise _unsupported(type(self).__name__, name)
+
+    def _build(self, convert) -> nodes.Node:
+        raise NotImplementedError
+
+
+def _centred(center, node: nodes.Node) -> nodes.Node:
+    return node if not any(center) else api.translate(center, node)
+
+
+class _Leaf(Node):
+    """A primitive: its fgslice node is built at once, so bad values fail on their line."""
+
+    def __init__(self, node: nodes.Node) -> None:
+        super().__init__()
+        self._node = node
+
+    def _build(self, convert) -> nodes.Node:
+        return self._node
+
+
+def _overload(owner: str, args: tuple, forms: dict[int, str], then: str = "") -> None:
+    """A DesignError listing ``forms`` (argument count -> names) unless ``args`` fits one."""
+    if len(args) not in forms:
+        takes = " or ".join(f"({forms[n]})" for n in sorted(forms))
+        raise DesignError(f"{owner} takes {takes}{then}, got {len(args)} arguments", hint=_DOCS)
+
+
+class RectPrism(_Leaf):
+    """``RectPrism(center, size, material=1)``: a box of ``size`` centred on ``center``."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        center, size, material = _bind("RectPrism", ("center", "size", "material"), args, kwargs,
+                                       {"center": Vec3(), "size": Vec3(1, 1, 1), "material": 1})
+        center, size = _vec3("RectPrism", "center", center), _vec3("RectPrism", "size", size)
+        super().__init__(_centred(center, api.rectprism(size, material=_material("RectPrism", material))))
+
+
+class Sphere(_Leaf):
+    """``Sphere(center, radius, material=1)`` or ``Sphere(cx, cy, cz, radius, material=1)``."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        if args and not isinstance(args[0], Vec3):
+            _overload("Sphere", args, {4: "cx, cy, cz, radius", 5: "cx, cy, cz, radius, material"})
+            args = (Vec3(*args[:3]), *args[3:])
+        center, radius, material = _bind("Sphere", ("center", "radius", "material"), args, kwargs,
+                                         {"center": Vec3(), "radius": 1.0, "material": 1})
+        center = _vec3("Sphere", "center", center)
+        super().__init__(_centred(center, api.sphere(radius, _material("Sphere", material))))
+
+
+class Cylinder(_Leaf):
+    """``Cylinder(center, radius, height, material=1)``: along Z, centred on ``center``."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        center, radius, height, material = _bind(
+            "Cylinder", ("center", "radius", "height", "material"), args, kwargs,
+            {"center": Vec3(), "radius": 1.0, "height": 1.0, "material": 1})
+        center = _vec3("Cylinder", "center", center)
+        super().__init__(_centred(center, api.cylinder(radius, height, _material("Cylinder", material))))
+
+
+class Strut(_Leaf):
+    """``Strut(start, end, radius, material=1)``: a capsule around the segment."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        start, end, radius, material = _bind("Strut", ("start", "end", "radius", "material"), args, kwargs,
+                                             {"material": 1})
+        a, b = _vec3("Strut", "start", start), _vec3("Strut", "end", end)
+        super().__init__(api.strut(a, b, radius, _material("Strut", material)))
+
+
+class Mesh(_Leaf):
+    """``Mesh(path, material=1, disable_validation=False)``; a ``sample_size`` (Vec3) or
+    ``override_voxel_size`` (number) second argument is accepted: fgslice slices the mesh
+    itself, not a voxelization. Relative paths: the script's folder, then the cwd."""
+
+    def __init__(self, path, *args, **kwargs) -> None:
+        if args and isinstance(args[0], (Vec3, float)):
+            args = args[1:]
+        material, _ = _bind("Mesh", ("material", "disable_validation"), args, kwargs,
+                            {"material": 1, "disable_validation": False})
+        if not isinstance(path, (str, Path)):
+            raise DesignError(f"Mesh: path must be a file name, got {path!r}", hint=_DOCS)
+        run = context.current()
+        found = resolve_mesh_path(str(path), run.path.resolve().parent if run else None)
+        try:
+            node = api.mesh(found, _material("Mesh", material))
+        except MeshError as error:
+            error.file = error.line = error.column = error.source_line = None
+            raise
+        super().__init__(node)
+
+
+class Function(_Leaf):
+    """``Function(function, material=1, min, max)``: inside where the function is <= 0,
+    within the box from ``min`` to ``max``; both corners are required."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        function, material, lo, hi = _bind("Function", ("function", "material", "min", "max"), args, kwargs,
+                                           {"material": 1, "min": None, "max": None})
+        function = _field("Function", function, with_d=False)
+        if lo is None or hi is None:
+            raise DesignError("Function needs its bounding box: Function(function, material, min, max)",
+                              hint="give min and max as pyvcad.Vec3 corners (mm)")
+        lo, hi = _vec3("Function", "min", lo), _vec3("Function", "max", hi)
+        super().__init__(api.function(lo, hi, function, _material("Function", material)))
+
+
+def _bind(owner: str, names: tuple[str, ...], args: tuple, kwargs: dict, defaults: dict) -> list:
+    """The values of ``names`` from positional and keyword arguments, or a DesignError naming the odd one."""
+    if len(args) > len(names):
+        raise DesignError(f"{owner} takes at most {len(names)} arguments ({', '.join(names)}), got {len(args)}",
+                          hint=_DOCS)
+    values = dict(zip(names, args))
+    for key, value in kwargs.items():
+        if key not in names:
+            raise DesignError(f"{owner} has no argument '{key}'", hint=f"its arguments are {', '.join(names)}")
+        if key in values:
+            raise DesignError(f"{owner} got '{key}' twice")
+        values[key] = value
+    missing = [n for n in names if n not in values and n not in defaults]
+    if missing:
+        raise DesignError(f"{owner} is missing its argument '{missing[0]}'", hint=_DOCS)
+    return [values.get(n, defaults.get(n)) for n in names]
+
+
+class _Children(Node):
+    """Union / Intersection: ``([k][, flag][, [children]])`` or the children themselves
+    (OpenVCAD 3). A smoothing radius ``k`` must be 0; the distribution flag is accepted
+    (overlaps take the first child's materials); ``add_child`` adds one child."""
+
+    _make = None
+
+    def __init__(self, *args) -> None:
+        super().__init__()
+        owner = type(self).__name__
+        if args and all(isinstance(a, Node) for a in args):
+            args = (list(args),)
+        rest = list(args)
+        if rest and not isinstance(rest[0], bool) and isinstance(rest[0], numbers.Real):
+            k = float(rest.pop(0))
+            if k != 0:
+                raise DesignError(f"{owner}: a smooth blend (k = {k:g}) is not supported by fgslice",
+                                  hint=f"use k = 0, or {owner}(False, [children])")
+        if rest and isinstance(rest[0], bool):
+            rest.pop(0)
+        children = rest.pop(0) if rest and isinstance(rest[0], Sequence) and not isinstance(rest[0], str) else []
+        if rest:
+            raise DesignError(f"{owner} takes ([k][, flag][, [children]]) or nodes, got {args!r}", hint=_DOCS)
+        self._children = []
+        for child in children:
+            self.add_child(child)
+
+    def add_child(self, child) -> None:
+        """Append ``child``."""
+        self._children.append(_child(type(self).__name__, child))
+
+    def _build(self, convert) -> nodes.Node:
+        if not self._children:
+            raise DesignError(f"{type(self).__name__} has no children", hint="add them with add_child(node)")
+        return type(self)._make(*(convert(c) for c in self._children))
+
+
+class Union(_Children):
+    _make = staticmethod(api.union)
+
+
+class Intersection(_Children):
+    _make = staticmethod(api.intersection)
+
+
+def _child(owner: str, child) -> Node:
+    if not isinstance(child, Node):
+        raise DesignError(f"{owner}: a child must be a pyvcad node, got {type(child).__name__}")
+    return child
+
+
+class Difference(Node):
+    """``Difference(left, right)`` (or ``()`` with ``set_left`` / ``set_right``): left
+    minus right, with left's materials; a leading smoothing radius ``k`` must be 0."""
+
+    def __init__(self, *args) -> None:
+        super().__init__()
+        if len(args) in (1, 3):
+            k, args = _number("Difference", "k", args[0]), args[1:]
+            if k != 0:
+                raise DesignError(f"Difference: a smooth blend (k = {k:g}) is not supported by fgslice",
+                                  hint="use k = 0, or Difference(left, right)")
+        _overload("Difference", args, {0: "", 2: "left, right"})
+        self._left = self._right = None
+        if args:
+            self.set_left(args[0])
+            self.set_right(args[1])
+
+    def set_left(self, child) -> None:
+        """The node to cut from."""
+        self._left = _child("Difference", child)
+
+    def set_right(self, child) -> None:
+        """The node cut away."""
+        self._right = _child("Difference", child)
+
+    def _build(self, convert) -> nodes.Node:
+        if self._left is None or self._right is None:
+            raise DesignError("Difference needs a left and a right child", hint="use set_left(a) and set_right(b)")
+        return api.difference(convert(self._left), convert(self._right))
+
+
+class _Unary(Node):
+    """A node with one child, given last in the constructor or by ``set_child``."""
+
+    def __init__(self, owner: str, args: tuple, forms: dict[int, str]) -> None:
+        super().__init__()
+        self._child = None
+        if args and isinstance(args[-1], Node):
+            self.set_child(args[-1])
+            args = args[:-1]
+        _overload(owner, args, forms, then=", then optionally the child")
+        self._args = args
+
+    def set_child(self, child) -> None:
+        """The node this one applies to."""
+        self._child = _child(type(self).__name__, child)
+
+    def _build(self, convert) -> nodes.Node:
+        if self._child is None:
+            raise DesignError(f"{type(self).__name__} has no child", hint="give it with set_child(node)")
+        return self._apply(convert(self._child))
+
+
+def _xyz(owner: str, args: tuple, default: float) -> tuple[float, float, float]:
+    return tuple(_number(owner, a, v) for a, v in zip("xyz", args)) if args else (default,) * 3
+
+
+class Translate(_Unary):
+    """``Translate(x, y, z[, child])``: moves the child (mm)."""
+
+    def __init__(self, *args) -> None:
+        super().__init__("Translate", args, {0: "", 3: "x, y, z"})
+        self._offset = _xyz("Translate", self._args, 0.0)
+
+    def _apply(self, child: nodes.Node) -> nodes.Node:
+        return api.translate(self._offset, child)
+
+
+class Scale(_Unary):
+    """``Scale(x, y, z[, child])`` or ``Scale(factor[, child])`` (OpenVCAD 3): stretches
+    the child by non-zero factors."""
+
+    def __init__(self, *args) -> None:
+        super().__init__("Scale", args, {0: "", 1: "factor", 3: "x, y, z"})
+        self._factors = _xyz("Scale", self._args * 3 if len(self._args) == 1 else self._args, 1.0)
+        if not all(self._factors):
+            raise DesignError("Scale: factors must be non-zero")
+
+    def _apply(self, child: nodes.Node) -> nodes.Node:
+        return api.scale(self._factors, child)
+
+
+class Rotate(_Unary):
+    """``Rotate(pitch, yaw, roll[, around][, child])`` or ``Rotate(Vec3(pitch, yaw, roll)[,
+    child])``: degrees about X, Y and Z, applied in OpenVCAD's order roll, then yaw, then
+    pitch (about the fixed axes), turning about the point ``around`` (default the origin)."""
+
+    def __init__(self, *args) -> None:
+        super().__init__("Rotate", args, {0: "", 1: "angles: Vec3", 3: "pitch, yaw, roll",
+                                          4: "pitch, yaw, roll, around: Vec3"})
+        angles = _vec3("Rotate", "angles", self._args[0]) if len(self._args) == 1 else self._args[:3]
+        self._angles = tuple(_number("Rotate", a, v) for a, v in zip(("pitch", "yaw", "roll"), angles))
+        self._around = _vec3("Rotate", "around", self._args[3]) if len(self._args) == 4 else (0.0, 0.0, 0.0)
+
+    def _apply(self, child: nodes.Node) -> nodes.Node:
+        pitch, yaw, roll = self._angles
+        turned = child if not any(self._around) else api.translate(tuple(-v for v in self._around), child)
+        for angles in ((0.0, 0.0, roll), (0.0, yaw, 0.0), (pitch, 0.0, 0.0)):
+            if any(angles):
+                turned = api.rotate(angles, turned)
+        return turned if not any(self._around) else api.translate(self._around, turned)
+
+
+class FGrade(_Unary):
+    """``FGrade(functions, materials, prob_mode[, child])``: ``functions[i]`` (an
+    expression string) is the fraction of ``materials[i]`` (ids from
+    ``default_materials.id``). Both modes give the continuous fractions."""
+
+    def __init__(self, *args) -> None:
+        super().__init__("FGrade", args, {3: "functions, materials, prob_mode"})
+        functions, materials, prob_mode = self._args
+        if isinstance(functions, str) or not isinstance(functions, Sequence):
+            raise DesignError(f"FGrade: functions must be a list of expression strings, got {functions!r}")
+        if not isinstance(materials, Sequence) or not all(isinstance(m, MaterialId) for m in materials):
+            raise DesignError("FGrade: materials must be a list of ids from default_materials.id(name)", hint=_DOCS)
+        if not isinstance(prob_mode, bool):
+            raise DesignError(f"FGrade: prob_mode must be True or False, got {prob_mode!r}")
+        self._fields, self._names = [_field("FGrade", f, with_d=True) for f in functions], [m.name for m in materials]
+
+    def _apply(self, child: nodes.Node) -> nodes.Node:
+        return api.fgrade(self._fields, self._names, child)
+
+
+def to_node(root: Node) -> nodes.Node:
+    """The fgslice node tree of ``root``; errors name the line where the failing node was made."""
+    if not isinstance(root, Node):
+        raise DesignError(f"the design's root must be a pyvcad node, got {type(root).__name__}")
+    building: set[int] = set()
+
+    def convert(node: Node) -> nodes.Node:
+        if id(node) in building:
+            raise context.locate(DesignError(f"{type(node).__name__} contains itself"), node._where)
+        building.add(id(node))
+        try:
+            return _stamp(node._build(convert), node._where)
+        except FgsliceError as error:
+            raise context.locate(error, node._where)
+        finally:
+            building.discard(id(node))
+
+    return convert(root)
+
+
+def _stamp(top: nodes.Node, where: nodes.Where) -> nodes.Node:
+    """Give ``where`` to the nodes of ``top`` that have no place yet (those just made),
+    so that errors found when the design is built name the script's line."""
+    stack = [top]
+    while stack:
+        node = stack.pop()
+        if node.where == nodes.NOWHERE:
+            node.where = where
+            stack.extend(node.children)
+    return top

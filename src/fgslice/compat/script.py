@@ -1,0 +1,112 @@
+"""Run an OpenVCAD design script (``design.py``) and return the design it renders.
+
+The script runs as Python, in a fresh ``__main__`` namespace, with ``pyvcad`` and
+``pyvcad_rendering`` importable as :mod:`fgslice.compat.pyvcad` and
+:mod:`fgslice.compat.pyvcad_rendering` (``sys.modules`` entries and the script's folder
+on ``sys.path``, both restored afterwards). The design is the root passed to the last
+``Export``, else to the last ``Render``, else the top-level variable ``root``. Any error —
+the script's own exception, an unsupported pyvcad name or argument, an invalid value — is
+a :class:`~fgslice.errors.FgsliceError` at the script's file and line.
+
+Running a script executes its Python: only run scripts you trust. ``.vcad`` files are
+never run as Python.
+"""
+
+from __future__ import annotations
+
+import builtins
+import contextlib
+import sys
+from pathlib import Path
+
+from fgslice.compat import context, pyvcad, pyvcad_rendering
+from fgslice.design import api, nodes
+from fgslice.design.language import read_design_text
+from fgslice.design.materials import MaterialLibrary
+from fgslice.errors import DesignError, DesignSyntaxError, FgsliceError
+
+def load_script(path: str | Path, materials: MaterialLibrary | str | Path | None = None) -> nodes.NodeDesign:
+    """Run the OpenVCAD script at ``path`` and build the design it renders.
+
+    ``materials``: a library or a JSON materials file extending the built-in library.
+    """
+    path = Path(path)
+    code = _compile(path, read_design_text(path, hint="a .py design is UTF-8 Python source"))
+    namespace = {"__name__": "__main__", "__file__": str(path), "__builtins__": builtins}
+    with context.running(path) as run, _pyvcad_importable(path.resolve().parent):
+        try:
+            exec(code, namespace)
+        except SystemExit as stop:
+            if stop.code not in (None, 0):
+                raise _script_error(stop, path, f"the script exited with status {stop.code}") from None
+        except FgsliceError as error:
+            raise context.locate(error, _script_frame(error.__traceback__, path)) from None
+        except Exception as error:  # noqa: BLE001 - any failure of the user's script is reported, located
+            raise _script_error(error, path, f"the script raised {type(error).__name__}: {error}") from None
+    root, where = _root(run, namespace, path)
+    try:
+        return api.design(pyvcad.to_node(root), materials)
+    except FgsliceError as error:
+        raise context.locate(error, where) from None
+
+
+def _compile(path: Path, source: str):
+    try:
+        return compile(source, str(path), "exec")
+    except SyntaxError as error:
+        raise DesignSyntaxError(
+            f"the script is not valid Python: {error.msg}", file=path, line=error.lineno,
+            column=error.offset, source_line=error.text.rstrip("\n") if error.text and error.offset else None,
+        ) from None
+
+
+@contextlib.contextmanager
+def _pyvcad_importable(folder: Path):
+    """``import pyvcad`` / ``pyvcad_rendering`` give fgslice's modules; the folder is on sys.path."""
+    names = {"pyvcad": pyvcad, "pyvcad_rendering": pyvcad_rendering}
+    saved = {name: sys.modules.get(name) for name in names}
+    sys.modules.update(names)
+    sys.path.insert(0, str(folder))
+    try:
+        yield
+    finally:
+        with contextlib.suppress(ValueError):
+            sys.path.remove(str(folder))
+        for name, module in saved.items():
+            if module is None:
+                sys.modules.pop(name, None)
+            else:
+                sys.modules[name] = module
+
+
+def _script_frame(traceback, path: Path) -> nodes.Where:
+    """The innermost frame of ``traceback`` in the script, as a :class:`Where`."""
+    where = nodes.NOWHERE
+    while traceback is not None:
+        if traceback.tb_frame.f_code.co_filename == str(path):
+            where = context.where_of_line(str(path), traceback.tb_lineno)
+        traceback = traceback.tb_next
+    return where
+
+
+def _script_error(error: BaseException, path: Path, message: str) -> DesignError:
+    where = _script_frame(error.__traceback__, path)
+    if where.file is None:
+        where = nodes.Where(str(path))
+    return DesignError(message, hint="the error is in the script, at the line shown", **where.error_kwargs())
+
+
+def _root(run: context.Run, namespace: dict, path: Path) -> tuple[pyvcad.Node, nodes.Where]:
+    """The design's root and where the script named it."""
+    for recorded in (run.exported, run.rendered):
+        if recorded:
+            return recorded[-1]
+    root = namespace.get("root")
+    if root is None:
+        raise DesignError(
+            "the script renders no design", file=path,
+            hint="pass the root node to pyvcad_rendering.Render(root, materials), or name it 'root'",
+        )
+    if not isinstance(root, pyvcad.Node):
+        raise DesignError(f"the script's 'root' is a {type(root).__name__}, not a pyvcad node", file=path)
+    return root, nodes.Where(str(path))
