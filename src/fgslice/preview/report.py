@@ -57,6 +57,7 @@ STAT_ROWS = (
     ("purge_g", "purge (g)", "{:.2f}"),
     ("purge_waste_share", "purge share of material", "percent"),
     ("uncovered_mm2", "area left unfilled (mm², all layers)", "{:.2f}"),
+    ("reassigned_mm2", "narrow area given to a neighbouring color (mm², all layers)", "{:.2f}"),
     ("lookahead_mm", "look-ahead (mm)", "{:g}"),
     ("elapsed_s", "slicing time (s)", "{:.1f}"),
 )
