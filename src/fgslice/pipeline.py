@@ -268,7 +268,7 @@ def slice_to_gcode(
     started = time.perf_counter()
     jobs = default_jobs() if jobs is None else max(1, jobs)
     n_materials = len(design.materials)
-    palette = Palette(n_materials, settings.colors if n_materials > 1 else 1)
+    palette = Palette(n_materials, settings.colors if n_materials > 1 else 1, settings.palette)
     dialect = make_dialect(settings, palette)
     placement = place_design(design, settings)
     layers = layer_heights(design, settings)
