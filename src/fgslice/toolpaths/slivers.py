@@ -87,7 +87,9 @@ def _by_contact(slivers, own, cores, core_color, n_colors: int, width: float) ->
     """The color each sliver joins, -1 where no neighbour prints most of it.
 
     In rounds, the candidates of a sliver are the colors of the cores and of the slivers
-    placed in earlier rounds that share more than a point of its boundary. A candidate's
+    placed in earlier rounds that share more than a point of its boundary (after the
+    first round only the slivers touching one placed in the last round are looked at
+    again: the others' candidates have not changed). A candidate's
     gain is how much the uncovered area within ``w`` of the sliver shrinks when the
     sliver joins it (:func:`_uncovered_near`); candidates printing at least half of the
     sliver qualify, and among those within 1 % of the best gain the one sharing the
@@ -98,12 +100,12 @@ def _by_contact(slivers, own, cores, core_color, n_colors: int, width: float) ->
     grown = shapely.buffer(slivers, CONTACT_TOLERANCE)
     inner, window = shapely.buffer(slivers, width), shapely.set_precision(shapely.buffer(slivers, 2 * width), MERGE_GRID)
     receivers, receiver_color = cores, core_color
-    pending = np.arange(len(slivers))
-    while len(pending):
+    pending = check = np.arange(len(slivers))
+    while len(check):
         tree = shapely.STRtree(receivers)
-        i, j = tree.query(slivers[pending], predicate="dwithin", distance=CONTACT_TOLERANCE)
-        shared = shapely.length(shapely.intersection(shapely.boundary(receivers[j]), grown[pending[i]]))
-        cand, shared = _sums(pending[i] * n_colors + receiver_color[j], shared)
+        i, j = tree.query(slivers[check], predicate="dwithin", distance=CONTACT_TOLERANCE)
+        shared = shapely.length(shapely.intersection(shapely.boundary(receivers[j]), grown[check[i]]))
+        cand, shared = _sums(check[i] * n_colors + receiver_color[j], shared)
         cand, shared = cand[shared > 4 * CONTACT_TOLERANCE], shared[shared > 4 * CONTACT_TOLERANCE]  # more than a corner
         sliver, candidate = cand // n_colors, cand % n_colors
         # the candidate colors' receivers near each sliver, merged
@@ -130,6 +132,9 @@ def _by_contact(slivers, own, cores, core_color, n_colors: int, width: float) ->
         receivers = np.concatenate([receivers, slivers[placed]])
         receiver_color = np.concatenate([receiver_color, color[placed]])
         pending = np.setdiff1d(pending, placed)
+        # only a sliver touching one just placed can have a new candidate
+        touching = shapely.STRtree(slivers[placed]).query(slivers[pending], predicate="dwithin", distance=CONTACT_TOLERANCE)[0]
+        check = pending[np.unique(touching)]
     return color
 
 
