@@ -217,3 +217,14 @@ def test_header_records_the_palette_for_the_simulator_and_viewer(tmp_path):
     result = simulate(out, design, None, load_settings("toolchanger"))
     assert {tuple(np.rint(c)) for c in result.commanded} == {(1.0, 0.0), (0.0, 1.0)}
     assert np.allclose(result.commanded, np.rint(result.commanded))
+
+
+def test_thresh_grade_of_three_materials_prints_only_pure_materials(tmp_path):
+    tree = api.fgrade(["rho/8", "1-rho/8", "y/6"], ["red", "green", "blue"], api.cylinder(10, 1), mode="thresh")
+    design = api.design(tree)
+    settings, program = _slice(design, tmp_path, colors=6, channels=3)
+    mix, _ = _commanded(program, 3)
+    assert len(mix) > 100
+    # the bands between the materials' regions went to a neighbour: every move is pure
+    assert np.allclose(mix.max(axis=1), 1.0, atol=1e-4)
+    assert {int(np.argmax(m)) for m in mix} == {0, 1, 2}

@@ -83,3 +83,14 @@ def test_examples_extrude_their_volume(tmp_path, name, overrides):
     design = load_design(EXAMPLES / f"{name}.vcad")
     settings, program, _ = _slice(design, tmp_path, **overrides)
     assert _extruded_volume(program, settings) == pytest.approx(_part_volume(design, settings, program), rel=0.03)
+
+
+@pytest.mark.parametrize("palette, colors", [("centers", 9), ("ends", 6)])
+def test_three_material_thresh_boundaries_are_printed_whole(tmp_path, palette, colors):
+    # sharp boundaries of a three-material palette: the bands' intersections hold lines
+    # along them too, which the faces must survive (GEOS failed on them)
+    tree = api.fgrade(["rho/8", "1-rho/8", "abs(x)/10"], ["red", "green", "blue"], api.cylinder(10, 2), mode="thresh")
+    design = api.design(tree)
+    settings, program, stats = _slice(design, tmp_path, colors=colors, channels=3, palette=palette)
+    assert _extruded_volume(program, settings) == pytest.approx(_part_volume(design, settings, program), rel=0.03)
+    assert stats["reassigned_mm2"] > 0

@@ -226,12 +226,23 @@ def color_faces(
         for extra in range(1, int((hi[:, i] - lo[:, i]).max()) + 1):
             wide = hi[:, i] - lo[:, i] >= extra
             strip[wide] = shapely.union(strip[wide], bands[lo[wide, i] + extra])
-        faces = strip if faces is None else shapely.intersection(faces, strip)
+        faces = strip if faces is None else _intersection(faces, strip)
     faces = _clipped(faces, outline)
     covered = shapely.area(faces).sum()
     if outline.area - covered > 1e-9 * max(outline.area, 1.0):
         faces = _fill_remainder(outline, faces, field, palette, z)
     return tuple(faces)
+
+
+def _intersection(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``shapely.intersection(a, b)`` of bands. Along a step of the field (a
+    three-material ``thresh`` grade) an intersection can also hold lines and points,
+    which GEOS then fails to intersect with an empty band; the polygonal parts are kept
+    and intersected again in that case."""
+    try:
+        return shapely.intersection(a, b)
+    except shapely.errors.GEOSException:
+        return shapely.intersection(polygonal_each(a), polygonal_each(b))
 
 
 def _fill_remainder(
