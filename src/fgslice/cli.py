@@ -122,7 +122,7 @@ def _write_report(path: Path, result, settings, design) -> None:
     from fgslice.preview.report import write_report
     from fgslice.slicing.palette import Palette
 
-    palette = Palette(len(design.materials), result.stats["colors"])
+    palette = Palette(len(design.materials), result.stats["colors"], settings.palette)
     simulated = simulate(result.output, design, None, settings)
     write_report(
         path, stats=result.stats, settings=settings, palette=palette, dialect=make_dialect(settings, palette),

@@ -57,6 +57,7 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     bead_width: Annotated[float, Meta(gt=0.05, le=5.0, description="extrusion bead width w, mm")] = 0.4
     strategy: Annotated[Literal[1, 2], Meta(description="1: walls/skins/infill cut into colors; 2: faces filled densely")] = 2
     colors: Annotated[int, Meta(ge=1, le=1024, description="palette size N")] = 4
+    palette: Annotated[Literal["centers", "ends"], Meta(description="palette colors: centers of equal bins (the paper's) or a lattice including the pure materials, nearest color per face")] = "centers"
     fill_pattern: Annotated[Literal["concentric", "rectilinear"], Meta(description="strategy 2 fill")] = "concentric"
     walls: Annotated[int, Meta(ge=0, le=100, description="strategy 1 perimeters")] = 2
     wall_order: Annotated[Literal["outer_first", "inner_first"], Meta(description="strategy 1 perimeter order")] = "inner_first"

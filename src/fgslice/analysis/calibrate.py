@@ -267,4 +267,4 @@ def calibration_palette(settings: Settings):
 
     materials = settings.channels if settings.dialect.startswith("marlin-mixing") else 2
     size = settings.tool_count if settings.dialect == "toolchanger" else settings.colors
-    return Palette(materials, size)
+    return Palette(materials, size, settings.palette)

@@ -627,7 +627,7 @@ def simulate(
             hint="simulate with the profile the G-code was sliced for (--profile)",
         )
     size = palette_size or header.colors or (settings.tool_count if settings.dialect == "toolchanger" else settings.colors)
-    palette = Palette(len(design.materials), size)
+    palette = Palette(len(design.materials), size, header.palette or settings.palette)
     if placement is not None:
         offset = tuple(placement.offset)
     elif header.placement_offset is not None:

@@ -38,6 +38,7 @@ class GcodeHeader:
     Attributes:
         placement_offset: ``bed = design + offset``, mm (three finite numbers).
         colors: palette size N.
+        palette: the palette kind (``centers`` or ``ends``; None when the file does not say).
         materials: the design's material names, in the order of the mixing channels.
         dialect: the machine dialect name (``marlin-mixing``, ``toolchanger``, ...).
         temperature_a: nozzle target at 100 % of the first material, degC.
@@ -50,6 +51,7 @@ class GcodeHeader:
 
     placement_offset: tuple[float, float, float] | None = None
     colors: int | None = None
+    palette: str | None = None
     materials: tuple[str, ...] = ()
     dialect: str | None = None
     temperature_a: float | None = None
@@ -124,6 +126,7 @@ def parse_header(text: str, file: str | None = None) -> GcodeHeader:
     return GcodeHeader(
         placement_offset=offset,
         colors=colors,
+        palette=values.get("palette"),
         materials=tuple(n.strip() for n in values.get("materials", "").split(",") if n.strip()),
         dialect=values.get("dialect"),
         temperature_a=_temperature(values, lines, "temperature_a", file),

@@ -172,7 +172,7 @@ def _palette_colors(printout: Printout, index: np.ndarray) -> tuple[np.ndarray, 
     out = np.tile(UNKNOWN_RGBA, (len(index), 1))
     labels: dict[int, str] = {}
     if printout.materials and info.colors:
-        palette = Palette(len(printout.materials), info.colors)
+        palette = Palette(len(printout.materials), info.colors, info.palette or "centers")
         names = [m.name for m in printout.materials]
         valid = known & (index < palette.size)
         out[valid] = mix_rgba(palette.centers[index[valid]], materials_rgba(printout.materials))

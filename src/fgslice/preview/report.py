@@ -60,6 +60,7 @@ STAT_ROWS = (
     ("tower_g", "purge tower (g)", "{:.2f}"),
     ("purge_tolerance", "purge tolerance (model)", "{:g}"),
     ("uncovered_mm2", "area left unfilled (mm², all layers)", "{:.2f}"),
+    ("reassigned_mm2", "narrow area given to a neighbouring color (mm², all layers)", "{:.2f}"),
     ("lookahead_mm", "look-ahead (mm)", "{:g}"),
     ("elapsed_s", "slicing time (s)", "{:.1f}"),
 )

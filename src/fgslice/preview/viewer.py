@@ -119,7 +119,7 @@ def _palette_centers(header: GcodeHeader, n_materials: int) -> np.ndarray | None
     if header.colors is None or n_materials < 1:
         return None
     try:
-        return Palette(n_materials, header.colors).centers
+        return Palette(n_materials, header.colors, header.palette or "centers").centers
     except FgsliceError:
         return None
 

@@ -12,7 +12,10 @@ Faces are computed without a polygon arrangement:
    so every band is a set of polygons with holes whose boundaries are the iso-lines,
    open or closed alike. Two materials: bands of ``f_0`` at ``j / N``. Three or more:
    bands of each ``f_i`` at ``j / m``; a cell's face is the intersection of the bands
-   of its tuple ``t``. Bands follow :meth:`Palette.cell_of`'s convention
+   of its tuple ``t``. With ``palette = ends`` the bands are those of
+   :meth:`Palette.band_values` (``f_0`` shifted by half a step for two materials, the
+   pairwise differences ``f_i - f_j`` for more, a color taking two bands of each).
+   Bands follow :meth:`Palette.cell_of`'s convention
    ``j/m <= f < (j+1)/m`` (the field is negated, since contourpy's bands are
    ``lower < z <= upper``), and the outermost bands are open-ended so the bands tile the
    whole grid;
@@ -214,19 +217,32 @@ def color_faces(
         return (outline,)
     xs, ys = _grid(outline.bounds, spacing)
     fractions = _sampled_fractions(field, xs, ys, z)
-    k, m = palette.n_materials, palette.subdivisions
-    if k == 2:
-        faces = _bands(xs, ys, fractions[:, :, 0], m)[palette.cells[:, 0]]
-    else:
-        bands = [_bands(xs, ys, fractions[:, :, i], m) for i in range(k)]
-        faces = bands[0][palette.cells[:, 0]]
-        for i in range(1, k):
-            faces = shapely.intersection(faces, bands[i][palette.cells[:, i]])
+    values = palette.band_values(fractions)
+    lo, hi = palette.band_range[..., 0], palette.band_range[..., 1]
+    faces = None
+    for i in range(values.shape[-1]):
+        bands = _bands(xs, ys, values[:, :, i], palette.n_bands)
+        strip = bands[lo[:, i]]
+        for extra in range(1, int((hi[:, i] - lo[:, i]).max()) + 1):
+            wide = hi[:, i] - lo[:, i] >= extra
+            strip[wide] = shapely.union(strip[wide], bands[lo[wide, i] + extra])
+        faces = strip if faces is None else _intersection(faces, strip)
     faces = _clipped(faces, outline)
     covered = shapely.area(faces).sum()
     if outline.area - covered > 1e-9 * max(outline.area, 1.0):
         faces = _fill_remainder(outline, faces, field, palette, z)
     return tuple(faces)
+
+
+def _intersection(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``shapely.intersection(a, b)`` of bands. Along a step of the field (a
+    three-material ``thresh`` grade) an intersection can also hold lines and points,
+    which GEOS then fails to intersect with an empty band; the polygonal parts are kept
+    and intersected again in that case."""
+    try:
+        return shapely.intersection(a, b)
+    except shapely.errors.GEOSException:
+        return shapely.intersection(polygonal_each(a), polygonal_each(b))
 
 
 def _fill_remainder(

@@ -98,6 +98,8 @@ class LayerPaths:
         paths: the layer's paths (any order; planning orders them).
         uncovered_mm2: area of the outline that no path covers because it is narrower
             than a bead (reported, never printed as garbage).
+        reassigned_mm2: area of color faces too narrow for a bead given to a
+            neighbouring color before filling (strategy 2), mm^2.
     """
 
     index: int
@@ -105,3 +107,4 @@ class LayerPaths:
     height: float
     paths: list[Path] = field(default_factory=list)
     uncovered_mm2: float = 0.0
+    reassigned_mm2: float = 0.0

@@ -15,8 +15,11 @@ thin tapering band ends included). Roles: the outermost loop of a face is
 EXTERNAL_PERIMETER when it runs along the part surface (within
 ``w / 2 +`` :data:`SURFACE_TOLERANCE` of the outline's boundary), PERIMETER otherwise;
 inner loops are SOLID_INFILL. Paths are simplified to ``gcode_resolution`` before they
-are returned. Parts of a face narrower than a bead are not printed; their area is
-reported in ``LayerPaths.uncovered_mm2``.
+are returned. Parts of a face narrower than a bead are first given to a neighbouring
+color (:func:`~fgslice.toolpaths.slivers.give_slivers`, area in
+``LayerPaths.reassigned_mm2``); what is still narrower than a bead after that (a part
+of the outline itself thinner than a bead) is not printed, its area is reported in
+``LayerPaths.uncovered_mm2``.
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ from fgslice.slicing.layers import LayerRegions
 from fgslice.toolpaths.infill import dense_levels, solid_fill, uncovered_area
 from fgslice.toolpaths.paths import LayerPaths, Role
 from fgslice.toolpaths.simplify import simplify_paths, simplify_polygons
+from fgslice.toolpaths.slivers import MIN_SLIVER_AREA, give_slivers
 from fgslice.toolpaths.walls import OUTLINE_TOLERANCE, bead_spacing, offset_polygons
 
 
@@ -41,21 +45,35 @@ def layer_paths(regions: LayerRegions, settings: Settings) -> LayerPaths:
     """Dense toolpaths of every color face of one layer (colors = face indices)."""
     w, h = settings.bead_width, settings.layer_height
     s = bead_spacing(w, h)
-    faces = simplify_polygons(np.asarray(regions.faces, dtype=object), simplify_tolerance(settings))
     out = LayerPaths(regions.index, regions.z, regions.height)
-    if len(faces) == 0:
+    if len(regions.faces) == 0:
         return out
+    faces, parts, owner, eroded, exact = _eroded_faces(regions.faces, settings)
+    # a polygon offset vertex by vertex comes back whole when dilated: nothing uncovered
+    uncovered = uncovered_area(parts[~exact], w, eroded=eroded[~exact])
+    if uncovered >= MIN_SLIVER_AREA:
+        given, out.reassigned_mm2 = give_slivers(regions.faces, w)
+        if out.reassigned_mm2 > 0:
+            faces, parts, owner, eroded, exact = _eroded_faces(given, settings)
+            uncovered = uncovered_area(parts[~exact], w, eroded=eroded[~exact])
+    out.uncovered_mm2 = uncovered
     levels = None if settings.fill_pattern == "concentric" else 1
-    parts, owner = shapely.get_parts(faces, return_index=True)
-    eroded, exact = offset_polygons(parts, -w / 2)
     loops = dense_levels(faces, w / 2, s, w, h, max_levels=levels, eroded=(eroded, owner))
     out.paths = simplify_paths(loops.paths(_roles(loops, regions.outline, w), loops.region, h), settings.gcode_resolution)
     if settings.fill_pattern == "rectilinear":
         angle = settings.infill_angle + 90.0 * (regions.index % 2)
         out.paths += solid_fill(loops.rest, angle, w, h, Role.SOLID_INFILL, loops.rest_region)
-    # a polygon offset vertex by vertex comes back whole when dilated: nothing uncovered
-    out.uncovered_mm2 = uncovered_area(parts[~exact], w, eroded=eroded[~exact])
     return out
+
+
+def _eroded_faces(faces, settings: Settings):
+    """``(faces, parts, owner, eroded, exact)``: the faces simplified to
+    :func:`simplify_tolerance`, their polygons and the face of each, and those eroded by
+    half a bead (``exact``: offset vertex by vertex)."""
+    faces = simplify_polygons(np.asarray(faces, dtype=object), simplify_tolerance(settings))
+    parts, owner = shapely.get_parts(faces, return_index=True)
+    eroded, exact = offset_polygons(parts, -settings.bead_width / 2)
+    return faces, parts, owner, eroded, exact
 
 
 def simplify_tolerance(settings: Settings) -> float:
