@@ -169,3 +169,57 @@ def test_layers_with_the_same_changes_share_their_tower_paths():
     assert all(a is b for a, b in zip(tower_paths[2], tower_paths[4]))
     volume = sum(p.length * bead_area(p.width, p.height) for paths in tower_paths for p in paths)
     assert stats.tower_mm3 == pytest.approx(volume, rel=1e-12)
+
+
+def layer_plans_by_layer(colors_of_layers):
+    """Like :func:`layer_plans`, with the colors of each layer given (traversal order)."""
+    plans, position = [], np.array([0.0, 0.0])
+    for k, colors in enumerate(colors_of_layers):
+        paths = [Path(np.array([[80.0 + 12.5 * c + 0.4 * i, 80.0], [80.0 + 12.5 * c + 0.4 * i, 120.0]]),
+                      Role.SOLID_INFILL, c, 0.4, 0.2) for c in colors for i in range(30)]
+        plan = order_layer(LayerPaths(k, 0.2 * (k + 1), 0.2, paths), np.array(colors), position, "walls_first")
+        position = plan.paths[-1].end
+        plans.append(plan)
+    return plans
+
+
+def tower_layers(plans):
+    return [plan.index for plan in plans if any(p.role is Role.WIPE_TOWER for p in plan.paths)]
+
+
+def test_the_tower_ends_at_the_last_layer_with_a_change():
+    settings = Settings(melt_volume_mm3=20.0)
+    # changes on layers 0-2 (and the first color of the print), then color 1 to the top
+    plans = layer_plans_by_layer([(0, 1), (1, 2), (2, 1)] + [(1,)] * 5)
+    tower = PurgeTower.plan(FOOTPRINT, settings, changes_per_layer=2, n_layers=8)
+    stats = PurgeStats()
+    out = list(insert_purges(iter(plans), tower, settings, PALETTE, stats))
+    assert [plan.index for plan in out] == list(range(8))
+    assert tower_layers(out) == [0, 1, 2]
+    for before, after in zip(plans[3:], out[3:]):
+        assert after.paths == before.paths
+    assert stats.changes == 4  # None -> 0, 0 -> 1, 1 -> 2, 2 -> 1
+    part_mm3 = sum(p.length * bead_area(p.width, p.height) for plan in plans for p in plan.paths)
+    assert stats.extruded_mm3 == pytest.approx(part_mm3 + stats.tower_mm3, rel=1e-9)
+
+
+def test_layers_without_a_change_below_a_later_change_carry_the_tower():
+    settings = Settings(melt_volume_mm3=20.0)
+    plans = layer_plans_by_layer([(0,)] * 4 + [(0, 3)])
+    tower = PurgeTower.plan(FOOTPRINT, settings, changes_per_layer=2, n_layers=5)
+    out = list(insert_purges(iter(plans), tower, settings, PALETTE))
+    assert tower_layers(out) == [0, 1, 2, 3, 4]  # the tower stands on the bed, not on air
+    records = [r for r in purges_per_change(out) if r[1] != r[2]]
+    assert [(r[0], r[1], r[2]) for r in records] == [(0, None, 0), (4, 0, 3)]
+    assert all(r[3] > 0 for r in records)
+
+
+def test_a_print_that_never_changes_state_has_no_tower():
+    settings = Settings(melt_volume_mm3=20.0)
+    plans = layer_plans_by_layer([(2,)] * 6)
+    tower = PurgeTower.plan(FOOTPRINT, settings, changes_per_layer=1, n_layers=6)
+    stats = PurgeStats()
+    out = list(insert_purges(iter(plans), tower, settings, PALETTE, stats))
+    assert tower_layers(out) == []
+    assert (stats.tower_mm3, stats.changes) == (0.0, 0)
+    assert all(a is b for a, b in zip(out, plans))

@@ -81,6 +81,7 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     purge: Annotated[bool, Meta(description="strategy 1 purge tower on state changes")] = True
     melt_volume_mm3: Annotated[float, Meta(ge=0, le=10000, description="melt chamber volume V_melt, mm^3")] = 68.5
     purge_scale_by_change: Annotated[bool, Meta(description="scale purge by the size of the state change")] = False
+    purge_into_infill: Annotated[bool, Meta(description="strategy 1: after a state change print the new color's sparse infill first, counting it against the purge")] = False
     purge_tower_x: Annotated[float | None, Meta(description="tower center X (bed frame), mm; None: automatic")] = None
     purge_tower_y: Annotated[float | None, Meta(description="tower center Y (bed frame), mm; None: automatic")] = None
     lookahead_mm: Annotated[float | Literal["auto"], Meta(description="issue state changes this far ahead (extruded path length), mm; 'auto' derives it from melt_volume_mm3")] = 0.0

@@ -15,8 +15,9 @@ purges 1/16 of ``L``); the first change of a print (old state unknown) purges ``
 
 The tower is a rectangle sized so the layer with the most changes fits: each change owns
 ``rows_per_change`` back-and-forth rows at spacing ``w`` inside a perimeter. Every layer
-prints the perimeter and a sparse fill over the rows no purge used (in the state the
-layer starts in), so the tower never stands on air, from the bed up to the part's top.
+up to the last one with a change prints the perimeter and a sparse fill over the rows no
+purge used (in the state the layer starts in), so the tower never stands on air; above
+it, and in a print without any change, there is no tower.
 """
 
 from __future__ import annotations
@@ -31,7 +32,17 @@ import numpy as np
 import shapely
 
 from fgslice.errors import SettingsError, SliceError
-from fgslice.planning.plan import EXTRA, PACKED, STATE, LayerPlan, PackedSteps, SetState, Step, polyline_lengths
+from fgslice.planning.plan import (
+    EXTRA,
+    PACKED,
+    ROLE_CODE,
+    STATE,
+    LayerPlan,
+    PackedSteps,
+    SetState,
+    Step,
+    polyline_lengths,
+)
 from fgslice.settings import Settings
 from fgslice.toolpaths.paths import Path, Role, bead_area
 
@@ -232,18 +243,30 @@ def insert_purges(
     palette,
     stats: PurgeStats | None = None,
 ) -> Iterator[LayerPlan]:
-    """Add the purge tower to each layer, serially and streaming.
+    """Add the purge tower to the layers that need it, serially and streaming.
 
     Tracks the commanded state across layers. On each layer: skirt paths stay first;
     before the layer's first :class:`SetState` the tower's perimeter and sparse fill are
     printed in the state the layer starts in; after every SetState that changes the
     state, a purge of the new color (role WIPE_TOWER) on the tower. With
-    ``settings.purge`` false or no tower the plans pass through unchanged.
+    ``settings.purge_into_infill`` the new color's sparse infill of that layer is printed
+    first and its volume counts against the purge (:func:`_purge_order`): the tower gets
+    only what is left, the color's walls and skins come after it.
+
+    The tower ends at the last layer with a tower purge after a change from a known state
+    (the first SetState of the print starts from an unknown state and does not count): a
+    layer without one is held back until a later layer needs the tower (then it gets the
+    tower's perimeter and fill, so the tower never stands on air) or the print ends (then
+    it is printed without tower, and a print that never changes state has none at all).
+    Only runs of layers without such a purge are held, so a print that changes state on
+    every layer streams one layer at a time. With ``settings.purge`` false or no tower the
+    plans pass through unchanged.
 
     Args:
         plans: ordered layer plans (from :func:`fgslice.planning.order.order_layer`).
         tower: from :meth:`PurgeTower.plan`.
-        settings: uses ``purge``, ``melt_volume_mm3``, ``bead_width``, ``purge_scale_by_change``.
+        settings: uses ``purge``, ``melt_volume_mm3``, ``bead_width``, ``purge_scale_by_change``,
+            ``purge_into_infill``.
         palette: its ``centers`` ((N, k) fractions) size scaled purges.
         stats: filled with volumes as layers go by; read it once the iterator is exhausted.
 
@@ -259,9 +282,56 @@ def insert_purges(
     centers = np.asarray(palette.centers, dtype=np.float64)
     state: int | None = None
     made: dict[tuple, tuple[Path, float]] = {}  # tower paths and volumes by what makes them: layers repeat them
+    held: list[_LayerPurges] = []
     for plan in plans:
         if plan.index >= tower.n_layers:
             raise ValueError(f"layer {plan.index} is above the {tower.n_layers} layers the tower was planned for")
+        layer = _LayerPurges.of(plan, state, tower, settings, centers)
+        if layer.changes > tower.changes_per_layer:
+            raise ValueError(
+                f"layer {plan.index} has {layer.changes} state changes; the tower was sized for {tower.changes_per_layer}"
+            )
+        state = layer.end_state
+        held.append(layer)
+        if layer.needs_tower:
+            for waiting in held:
+                yield waiting.with_tower(tower, made, stats)
+            held.clear()
+    for waiting in held:
+        yield waiting.without_tower(stats)
+
+
+@dataclass(frozen=True)
+class _LayerPurges:
+    """A layer's plan with what its state changes purge (see :func:`insert_purges`).
+
+    Attributes:
+        plan: the layer's plan.
+        start_state: the state the layer starts in (None: unknown, before the first change).
+        end_state: the state it ends in.
+        changes: its SetStates that change the state.
+        marks, colors: index and color of each of its SetStates.
+        groups: per SetState, the steps that follow it up to the next one, in printing
+            order, as ``(before, after)``: index arrays of the steps printed before the
+            tower purge and after it.
+        lengths: per SetState, the purge left for the tower, mm (0 where the state does
+            not change or the infill took it all).
+        needs_tower: a tower purge follows a change from a known state.
+    """
+
+    plan: LayerPlan
+    start_state: int | None
+    end_state: int | None
+    changes: int
+    marks: list[int]
+    colors: list[int]
+    groups: list[tuple[np.ndarray, np.ndarray]]
+    lengths: list[float]
+    needs_tower: bool
+
+    @classmethod
+    def of(cls, plan: LayerPlan, state: int | None, tower: PurgeTower, settings: Settings, centers) -> "_LayerPurges":
+        """What ``plan``'s changes purge, starting in ``state``."""
         packed = plan.packed
         if packed is not None:
             marks = np.flatnonzero(packed.kind == STATE).tolist()
@@ -271,66 +341,135 @@ def insert_purges(
             marks = [i for i, step in enumerate(plan.steps) if isinstance(step, SetState)]
             colors = [plan.steps[i].color for i in marks]
             n_steps = len(plan.steps)
-        changes = _count_changes(colors, state)
-        if changes > tower.changes_per_layer:
-            raise ValueError(
-                f"layer {plan.index} has {changes} state changes; the tower was sized for {tower.changes_per_layer}"
-            )
+        start, changes = state, _count_changes(colors, state)
+        ends = marks + [n_steps]
+        groups, lengths, needs = [], [], False
+        for k, (i, color) in enumerate(zip(marks, colors)):
+            steps = np.arange(i + 1, ends[k + 1])
+            if color == state:
+                groups.append((steps[:0], steps))
+                lengths.append(0.0)
+                continue
+            length = purge_length(settings.melt_volume_mm3, tower.line_width, plan.height)
+            if settings.purge_scale_by_change and state is not None:
+                length *= float(np.max(np.abs(centers[color] - centers[state])))
+            if settings.purge_into_infill:
+                length, before, after = _purge_order(plan, steps, length, tower.line_width)
+            else:
+                before, after = steps[:0], steps
+            groups.append((before, after))
+            lengths.append(length)
+            needs |= state is not None and length > 0
+            state = color
+        return cls(plan, start, state, changes, marks, colors, groups, lengths, needs)
+
+    def with_tower(self, tower: PurgeTower, made: dict, stats: PurgeStats) -> LayerPlan:
+        """The plan with the tower's perimeter and fill and the purges; ``made`` caches
+        tower paths by what makes them, ``stats`` is added to."""
+        plan, state = self.plan, self.start_state
+        slots = sum(length > 0 for length in self.lengths)
         if len(made) > MADE_PATHS:
             made.clear()
-        base_key = ("base", changes, CURRENT_STATE if state is None else state, plan.height)
+        base_key = ("base", slots, CURRENT_STATE if state is None else state, plan.height)
         if base_key not in made:
             paths = tower.base_paths(*base_key[1:])
             made[base_key] = (paths, float(_volumes(paths).sum()))
         base, base_volume = made[base_key]
-        # the new order: ranges (a, b) of the plan's steps and lists of tower paths
-        ends = marks + [n_steps]
-        pieces: list[tuple[int, int] | list[Path]] = [(0, ends[0])]
-        if not marks:
-            pieces.append(base)
-        purges: list[Path] = []
-        purge_volumes: list[float] = []
-        for k, (i, color) in enumerate(zip(marks, colors)):
-            if k == 0:
-                pieces.append(base)
-            pieces.append((i, i + 1))
-            if color != state:
-                length = purge_length(settings.melt_volume_mm3, tower.line_width, plan.height)
-                if settings.purge_scale_by_change and state is not None:
-                    length *= float(np.max(np.abs(centers[color] - centers[state])))
-                key = (len(purges), length, color, plan.height)
-                if key not in made:
-                    path = tower.purge_path(*key)
-                    made[key] = (path, float(_volumes([path])[0]))
-                path, volume = made[key]
-                purges.append(path)
-                purge_volumes.append(volume)
-                pieces.append([path])
-                state = color
-            pieces.append((i + 1, ends[k + 1]))
-        purge_volume = float(np.sum(purge_volumes))
+        purges: list[list[Path]] = []
+        purge_volume = 0.0
+        for color, length in zip(self.colors, self.lengths):
+            if length <= 0:
+                purges.append([])
+                continue
+            key = (sum(map(len, purges)), length, color, plan.height)
+            if key not in made:
+                path = tower.purge_path(*key)
+                made[key] = (path, float(_volumes([path])[0]))
+            path, volume = made[key]
+            purges.append([path])
+            purge_volume += volume
         stats.purge_mm3 += purge_volume
-        stats.changes += len(purges)
+        stats.changes += self.changes
         stats.tower_base_mm3 += base_volume
         stats.extruded_mm3 += purge_volume + base_volume + _plan_volume(plan)
+        return self._plan_with(base, purges)
+
+    def without_tower(self, stats: PurgeStats) -> LayerPlan:
+        """The plan in the purge order but without the tower (``stats`` is added to)."""
+        stats.extruded_mm3 += _plan_volume(self.plan)
+        if not any(len(before) for before, _ in self.groups):
+            return self.plan
+        return self._plan_with([], [[] for _ in self.marks])
+
+    def _plan_with(self, base: list[Path], purges: list[list[Path]]) -> LayerPlan:
+        """The plan's steps with ``base`` before its first SetState (after the others
+        when it has none) and each change's purge between its two step groups."""
+        plan = self.plan
+        first = self.marks[0] if self.marks else (len(plan.packed.kind) if plan.packed is not None else len(plan.steps))
+        pieces: list[tuple[int, int] | np.ndarray | list[Path]] = [(0, first), base]
+        for i, (before, after), purge in zip(self.marks, self.groups, purges):
+            pieces += [(i, i + 1), before, purge, after]
+        packed = plan.packed
         if packed is not None:
-            yield LayerPlan.from_packed(plan.index, plan.z, plan.height, _packed_with(packed, pieces))
-        else:
-            steps: list[Step] = []
-            for piece in pieces:
-                steps.extend(plan.steps[piece[0] : piece[1]] if isinstance(piece, tuple) else piece)
-            yield LayerPlan(index=plan.index, z=plan.z, height=plan.height, steps=steps, prepared=plan.prepared)
+            return LayerPlan.from_packed(plan.index, plan.z, plan.height, _packed_with(packed, pieces))
+        steps: list[Step] = []
+        for piece in pieces:
+            if isinstance(piece, tuple):
+                steps.extend(plan.steps[piece[0] : piece[1]])
+            elif isinstance(piece, np.ndarray):
+                steps.extend(plan.steps[j] for j in piece.tolist())
+            else:
+                steps.extend(piece)
+        return LayerPlan(index=plan.index, z=plan.z, height=plan.height, steps=steps, prepared=plan.prepared)
 
 
-def _packed_with(packed: PackedSteps, pieces: list[tuple[int, int] | list[Path]]) -> PackedSteps:
-    """``packed`` with its steps reordered as ``pieces``: ranges ``(a, b)`` of its steps and
-    lists of new paths (added to its extras)."""
+def _purge_order(plan: LayerPlan, steps: np.ndarray, length: float, line_width: float) -> tuple[float, np.ndarray, np.ndarray]:
+    """Purge into infill: the steps of a color group (``steps``, indices into the plan,
+    in printing order) split into its sparse infill, printed first, and the rest, and
+    the purge length (mm of tower line of ``line_width`` at the plan's height) left once
+    the infill's volume has been counted against ``length``."""
+    roles, volumes = _step_roles_and_volumes(plan, steps)
+    infill = roles == ROLE_CODE[Role.INTERNAL_INFILL]
+    area = bead_area(line_width, plan.height)
+    left = max(0.0, length * area - float(volumes[infill].sum())) / area
+    return left, steps[infill], steps[~infill]
+
+
+def _step_roles_and_volumes(plan: LayerPlan, steps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Role code (:data:`~fgslice.planning.plan.ROLE_CODE`, -1 for a SetState) and extruded
+    volume (mm^3) of the plan's ``steps``."""
+    packed = plan.packed
+    roles = np.full(len(steps), -1, dtype=np.int64)
+    volumes = np.zeros(len(steps))
+    if packed is not None:
+        kind, ref = packed.kind[steps], packed.ref[steps]
+        own = kind == PACKED
+        rows = ref[own]
+        roles[own] = packed.roles[rows]
+        volumes[own] = packed.lengths[rows] * bead_area(packed.widths[rows], packed.heights[rows])
+        extra = np.flatnonzero(kind == EXTRA)
+        paths = [packed.extras[r] for r in ref[extra].tolist()]
+    else:
+        extra = np.array([j for j, s in enumerate(steps.tolist()) if isinstance(plan.steps[s], Path)], dtype=np.int64)
+        paths = [plan.steps[s] for s in steps[extra].tolist()]
+    if paths:
+        roles[extra] = [ROLE_CODE[p.role] for p in paths]
+        volumes[extra] = _volumes(paths)
+    return roles, volumes
+
+
+def _packed_with(packed: PackedSteps, pieces: list[tuple[int, int] | np.ndarray | list[Path]]) -> PackedSteps:
+    """``packed`` with its steps reordered as ``pieces``: ranges ``(a, b)`` and index
+    arrays of its steps, and lists of new paths (added to its extras)."""
     extras = list(packed.extras)
     kinds, refs = [], []
     for piece in pieces:
         if isinstance(piece, tuple):
             kinds.append(packed.kind[piece[0] : piece[1]])
             refs.append(packed.ref[piece[0] : piece[1]])
+        elif isinstance(piece, np.ndarray):
+            kinds.append(packed.kind[piece])
+            refs.append(packed.ref[piece])
         else:
             kinds.append(np.full(len(piece), EXTRA, dtype=np.int8))
             refs.append(np.arange(len(extras), len(extras) + len(piece), dtype=np.int32))
