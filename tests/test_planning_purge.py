@@ -223,3 +223,80 @@ def test_a_print_that_never_changes_state_has_no_tower():
     assert tower_layers(out) == []
     assert (stats.tower_mm3, stats.changes) == (0.0, 0)
     assert all(a is b for a, b in zip(out, plans))
+
+
+def walls_and_infill_plans(n_layers, colors=(0, 1, 2, 3), infill_lines=10):
+    """Layers where each color owns a band with a wall loop and ``infill_lines`` sparse lines."""
+    plans, position = [], np.array([0.0, 0.0])
+    for k in range(n_layers):
+        paths = []
+        for c in colors:
+            x0 = 80.0 + 12.5 * c
+            paths.append(Path(np.array([[x0, 80.0], [x0 + 12, 80.0], [x0 + 12, 120.0], [x0, 120.0]]),
+                              Role.EXTERNAL_PERIMETER, c, 0.4, 0.2, closed=True))
+            paths += [Path(np.array([[x0 + 1 + i, 81.0], [x0 + 1 + i, 119.0]]), Role.INTERNAL_INFILL, c, 0.4, 0.2)
+                      for i in range(infill_lines)]
+        order = np.array(colors) if k % 2 == 0 else np.array(colors)[::-1]
+        plan = order_layer(LayerPaths(k, 0.2 * (k + 1), 0.2, paths), order, position, "walls_first")
+        position = plan.paths[-1].end
+        plans.append(plan)
+    return plans
+
+
+@pytest.mark.parametrize("infill_lines", [2, 10])
+def test_purge_into_infill_prints_the_new_colors_infill_first_and_the_tower_only_what_is_left(infill_lines):
+    from fgslice.planning.purge import _unsettled_mm3
+
+    settings = Settings(melt_volume_mm3=20.0, purge_into_infill=True)
+    plans = walls_and_infill_plans(4, infill_lines=infill_lines)
+    tower = PurgeTower.plan(FOOTPRINT, settings, changes_per_layer=4, n_layers=4)
+    stats = PurgeStats()
+    out = list(insert_purges(iter(plans), tower, settings, PALETTE, stats))
+    area = settings.bead_area
+    since, state = 0.0, None
+    for before, after in zip(plans, out):
+        # the same part paths, only reordered within each color
+        assert sorted(map(id, after.paths)) == sorted(map(id, before.paths + [p for p in after.paths if p.role is Role.WIPE_TOWER]))
+        steps = after.steps
+        marks = [i for i, s in enumerate(steps) if isinstance(s, SetState)]
+        since += sum(p.length * area for p in steps[: marks[0]] if isinstance(p, Path) and p.role is not Role.WIPE_TOWER)
+        for i, j in zip(marks, marks[1:] + [len(steps)]):
+            group = steps[i + 1 : j]
+            color = steps[i].color
+            roles = [p.role for p in group]
+            if color == state:
+                assert Role.WIPE_TOWER not in roles
+                since += sum(p.length * area for p in group)
+                continue
+            n_infill = roles.count(Role.INTERNAL_INFILL)
+            assert roles[:n_infill] == [Role.INTERNAL_INFILL] * n_infill  # the new color's infill first
+            poured = sum(p.length * area for p in group[:n_infill])
+            tower_mm3 = sum(p.length * area for p in group if p.role is Role.WIPE_TOWER)
+            expected = min(max(0.0, 20.0 + _unsettled_mm3(since, settings) - poured), 20.0)
+            assert tower_mm3 == pytest.approx(expected, rel=1e-6, abs=1e-6)
+            rest = roles[n_infill + (tower_mm3 > 0):]
+            assert rest and all(r is Role.EXTERNAL_PERIMETER for r in rest)  # then walls
+            assert all(p.color == color for p in group if p.role is not Role.WIPE_TOWER)
+            since = sum(p.length * area for p in group)  # the tower purge included
+            state = color
+    part_mm3 = sum(p.length * bead_area(p.width, p.height) for plan in plans for p in plan.paths)
+    assert stats.extruded_mm3 == pytest.approx(part_mm3 + stats.tower_mm3, rel=1e-9)
+    plain = PurgeStats()
+    list(insert_purges(iter(walls_and_infill_plans(4, infill_lines=infill_lines)), tower,
+                       Settings(melt_volume_mm3=20.0), PALETTE, plain))
+    assert stats.purge_mm3 < plain.purge_mm3
+    if infill_lines == 10:  # 10 lines of 38 mm (27 mm^3) take every purge: no tower at all
+        assert stats.tower_mm3 == 0.0 and tower_layers(out) == []
+    else:
+        assert tower_layers(out) == [0, 1, 2, 3]
+
+
+def test_unsettled_purge_grows_with_a_short_previous_run():
+    from fgslice.planning.purge import _unsettled_mm3
+
+    settings = Settings(melt_volume_mm3=68.5, mixing_share=0.3)
+    v_mix = 0.3 * 68.5
+    assert _unsettled_mm3(0.0, settings) == pytest.approx(v_mix * np.log(2))
+    assert _unsettled_mm3(0.7 * 68.5, settings) == pytest.approx(v_mix * np.log(2))
+    assert _unsettled_mm3(68.5 + 10 * v_mix, settings) == pytest.approx(v_mix * np.exp(-11), rel=1e-3)
+    assert _unsettled_mm3(100.0, Settings(mixing_share=0.0)) == 0.0

@@ -250,8 +250,9 @@ def insert_purges(
     printed in the state the layer starts in; after every SetState that changes the
     state, a purge of the new color (role WIPE_TOWER) on the tower. With
     ``settings.purge_into_infill`` the new color's sparse infill of that layer is printed
-    first and its volume counts against the purge (:func:`_purge_order`): the tower gets
-    only what is left, the color's walls and skins come after it.
+    first and its volume counts against the purge: the tower gets only what is left (plus
+    :func:`_unsettled_mm3`, never more than the full purge), the color's walls and skins
+    come after it.
 
     The tower ends at the last layer with a tower purge after a change from a known state
     (the first SetState of the print starts from an unknown state and does not count): a
@@ -282,16 +283,17 @@ def insert_purges(
     centers = np.asarray(palette.centers, dtype=np.float64)
     state: int | None = None
     made: dict[tuple, tuple[Path, float]] = {}  # tower paths and volumes by what makes them: layers repeat them
+    since = 0.0
     held: list[_LayerPurges] = []
     for plan in plans:
         if plan.index >= tower.n_layers:
             raise ValueError(f"layer {plan.index} is above the {tower.n_layers} layers the tower was planned for")
-        layer = _LayerPurges.of(plan, state, tower, settings, centers)
+        layer = _LayerPurges.of(plan, state, since, tower, settings, centers)
         if layer.changes > tower.changes_per_layer:
             raise ValueError(
                 f"layer {plan.index} has {layer.changes} state changes; the tower was sized for {tower.changes_per_layer}"
             )
-        state = layer.end_state
+        state, since = layer.end_state, layer.since
         held.append(layer)
         if layer.needs_tower:
             for waiting in held:
@@ -309,6 +311,8 @@ class _LayerPurges:
         plan: the layer's plan.
         start_state: the state the layer starts in (None: unknown, before the first change).
         end_state: the state it ends in.
+        since: volume extruded since its last change, tower purge included, mm^3 (purge
+            into infill only; 0 otherwise).
         changes: its SetStates that change the state.
         marks, colors: index and color of each of its SetStates.
         groups: per SetState, the steps that follow it up to the next one, in printing
@@ -322,6 +326,7 @@ class _LayerPurges:
     plan: LayerPlan
     start_state: int | None
     end_state: int | None
+    since: float
     changes: int
     marks: list[int]
     colors: list[int]
@@ -330,8 +335,10 @@ class _LayerPurges:
     needs_tower: bool
 
     @classmethod
-    def of(cls, plan: LayerPlan, state: int | None, tower: PurgeTower, settings: Settings, centers) -> "_LayerPurges":
-        """What ``plan``'s changes purge, starting in ``state``."""
+    def of(cls, plan: LayerPlan, state: int | None, since: float, tower: PurgeTower, settings: Settings,
+           centers) -> "_LayerPurges":
+        """What ``plan``'s changes purge, starting in ``state`` with ``since`` mm^3 extruded
+        since the last change (purge into infill only)."""
         packed = plan.packed
         if packed is not None:
             marks = np.flatnonzero(packed.kind == STATE).tolist()
@@ -343,25 +350,35 @@ class _LayerPurges:
             n_steps = len(plan.steps)
         start, changes = state, _count_changes(colors, state)
         ends = marks + [n_steps]
+        if settings.purge_into_infill:
+            roles, volumes = _step_roles_and_volumes(plan, np.arange(n_steps))
+            since += float(volumes[: ends[0]].sum())
+        area = bead_area(tower.line_width, plan.height)
         groups, lengths, needs = [], [], False
         for k, (i, color) in enumerate(zip(marks, colors)):
             steps = np.arange(i + 1, ends[k + 1])
             if color == state:
                 groups.append((steps[:0], steps))
                 lengths.append(0.0)
+                if settings.purge_into_infill:
+                    since += float(volumes[steps].sum())
                 continue
             length = purge_length(settings.melt_volume_mm3, tower.line_width, plan.height)
             if settings.purge_scale_by_change and state is not None:
                 length *= float(np.max(np.abs(centers[color] - centers[state])))
             if settings.purge_into_infill:
-                length, before, after = _purge_order(plan, steps, length, tower.line_width)
+                infill = roles[steps] == ROLE_CODE[Role.INTERNAL_INFILL]
+                poured = float(volumes[steps][infill].sum())
+                left = min(max(0.0, length * area + _unsettled_mm3(since, settings) - poured) / area, length)
+                groups.append((steps[infill], steps[~infill]))
+                lengths.append(left)
+                since = left * area + float(volumes[steps].sum())
             else:
-                before, after = steps[:0], steps
-            groups.append((before, after))
-            lengths.append(length)
-            needs |= state is not None and length > 0
+                groups.append((steps[:0], steps))
+                lengths.append(length)
+            needs |= state is not None and lengths[-1] > 0
             state = color
-        return cls(plan, start, state, changes, marks, colors, groups, lengths, needs)
+        return cls(plan, start, state, since, changes, marks, colors, groups, lengths, needs)
 
     def with_tower(self, tower: PurgeTower, made: dict, stats: PurgeStats) -> LayerPlan:
         """The plan with the tower's perimeter and fill and the purges; ``made`` caches
@@ -423,16 +440,24 @@ class _LayerPurges:
         return LayerPlan(index=plan.index, z=plan.z, height=plan.height, steps=steps, prepared=plan.prepared)
 
 
-def _purge_order(plan: LayerPlan, steps: np.ndarray, length: float, line_width: float) -> tuple[float, np.ndarray, np.ndarray]:
-    """Purge into infill: the steps of a color group (``steps``, indices into the plan,
-    in printing order) split into its sparse infill, printed first, and the rest, and
-    the purge length (mm of tower line of ``line_width`` at the plan's height) left once
-    the infill's volume has been counted against ``length``."""
-    roles, volumes = _step_roles_and_volumes(plan, steps)
-    infill = roles == ROLE_CODE[Role.INTERNAL_INFILL]
-    area = bead_area(line_width, plan.height)
-    left = max(0.0, length * area - float(volumes[infill].sum())) / area
-    return left, steps[infill], steps[~infill]
+def _unsettled_mm3(since: float, settings: Settings) -> float:
+    """Extra purge (mm^3) after a change made ``since`` mm^3 after the previous one, when
+    the sparse infill takes the purge.
+
+    In the melt-chamber model (plug flow ``V_plug = (1 - s) V_melt``, then a well-mixed
+    ``V_mix = s V_melt``, ``s`` = ``mixing_share``) the share of a change still unsettled
+    after ``v`` mm^3 is ``rho = exp(-(v - V_plug) / V_mix)`` (1 before ``V_plug``). The
+    infill taken in front of the tower shortens the previous color's run, so the old
+    state still holds ``rho`` of the color before it; after ``V_melt + V_mix ln(1 + rho)``
+    the first wall sees no more of older colors than after a full purge from a settled
+    state (both changes in the same direction, the worst case). 0 without mixing.
+    """
+    v_mix = settings.mixing_share * settings.melt_volume_mm3
+    if v_mix <= 0:
+        return 0.0
+    v_plug = settings.melt_volume_mm3 - v_mix
+    rho = math.exp(-max(since - v_plug, 0.0) / v_mix)
+    return v_mix * math.log1p(rho)
 
 
 def _step_roles_and_volumes(plan: LayerPlan, steps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
