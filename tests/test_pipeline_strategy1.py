@@ -158,3 +158,42 @@ def test_a_part_that_never_changes_color_has_no_tower(tmp_path, materials):
     assert not np.any(printing & (roles == "Wipe tower"))
     assert stats["purge_mm3"] == 0.0 and stats["purge_waste_share"] == 0.0
     assert len(set(program.state[printing & (roles != "Skirt/Brim")].tolist())) == 1
+
+
+SLAB_WITH_RIM = (
+    'fgrade(["0.5", "0.5"], ["blue", "yellow"]) { union() {\n'
+    '    translate(0, 0, 2.5) { rectprism(40, 20, 5); }\n'
+    '    translate(0, 0, 7.5) { difference() { rectprism(40, 20, 5); rectprism(36, 16, 6); } }\n'
+    '} }\n'
+)
+
+
+@pytest.mark.parametrize("anchored", [True, False])
+def test_the_band_under_the_rim_is_solid_on_the_slabs_top_layers(tmp_path, anchored):
+    """40 x 20 x 5 mm slab with a 2 mm rim from z 5 to 10: on the slab's top 3 layers the
+    band inside the walls under the rim (0.74-2 mm from the edge) is covered by the
+    layers above and below, yet too narrow for sparse lines; anchored skins fill it."""
+    overrides = {} if anchored else {"skin_margin": 0, "sparse_min_width": 0}
+    program, roles, printing, _ = _slice_text(tmp_path, SLAB_WITH_RIM, **overrides)
+    offset = np.array(read_header(tmp_path / "part.gcode").placement_offset)
+    box = shapely.box(-20 + offset[0], -10 + offset[1], 20 + offset[0], 10 + offset[1])
+    w = 0.4
+    inner_edge = w / 2 + (w - 0.2 * (1 - np.pi / 4)) * 1.5  # inside the 2 walls' strips
+    band = box.buffer(-inner_edge, join_style="mitre").difference(box.buffer(-2.0, join_style="mitre"))
+    area = np.pi * 1.75**2 / 4
+    for z in (4.6, 4.8, 5.0):
+        layer = printing & np.isclose(program.end[:, 2], z) & np.isin(roles, ["Solid infill", "Top solid infill", "Internal infill"])
+        mid = (program.start[layer, :2] + program.end[layer, :2]) / 2
+        in_band = shapely.contains_xy(band.buffer(1e-6), mid[:, 0], mid[:, 1])
+        filled = program.e[layer][in_band].sum() * area / (band.area * 0.2)  # share of the band's volume
+        lines = shapely.multilinestrings([shapely.LineString([a[:2], b[:2]]) for a, b in zip(program.start[layer], program.end[layer])])
+        covered = shapely.buffer(lines, 0.3).intersection(band).area / band.area  # nothing wider than a bead left
+        if anchored:
+            assert covered > 0.99 and filled > 0.85, (z, covered, filled)
+            assert not np.any(layer & (roles == "Internal infill"))
+        else:
+            assert covered < 0.6 and filled < 0.4, (z, covered, filled)
+    # the layer's extruded volume against its volume (outline area x h), anchored
+    if anchored:
+        layer = printing & np.isclose(program.end[:, 2], 5.0) & (roles != "Skirt/Brim") & (roles != "Wipe tower")
+        assert program.e[layer].sum() * area == pytest.approx(box.area * 0.2, rel=0.03)

@@ -373,7 +373,7 @@ def slice_to_gcode(
 
     stats.setdefault("warnings", [])
     stats["warnings"] = list(stats["warnings"]) + strategy1.summarize_short_pieces(
-        short_records, total, settings.min_segment_mm
+        short_records, total, settings.min_segment_mm, palette.size
     )
     stats.update(
         {

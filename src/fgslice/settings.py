@@ -62,6 +62,8 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     wall_order: Annotated[Literal["outer_first", "inner_first"], Meta(description="strategy 1 perimeter order")] = "inner_first"
     top_layers: Annotated[int, Meta(ge=0, le=100, description="strategy 1 top solid layers")] = 3
     bottom_layers: Annotated[int, Meta(ge=0, le=100, description="strategy 1 bottom solid layers")] = 3
+    skin_margin: Annotated[float, Meta(ge=0, le=50, description="strategy 1: top/bottom solid areas extend this far into the sparse area around them, mm")] = 0.8
+    sparse_min_width: Annotated[float, Meta(ge=0, le=50, description="strategy 1: sparse areas narrower than this become solid, mm")] = 2.0
     infill_density: Annotated[float, Meta(ge=0, le=100, description="strategy 1 sparse infill, percent")] = 20.0
     infill_pattern: Annotated[Literal["rectilinear", "concentric"], Meta(description="strategy 1 sparse infill pattern")] = "rectilinear"
     infill_angle: Annotated[float, Meta(ge=-360, le=360, description="direction of rectilinear lines on even layers, degrees")] = 45.0
