@@ -61,8 +61,8 @@ def test_the_transition_account_adds_up_by_feature(bar):
 
 
 def test_roles_of_fgslice_prusaslicer_and_cura_map_to_features():
-    names = ["External perimeter", "Perimeter", "Overhang perimeter", "WALL-OUTER", "WALL-INNER",
+    names = ["External perimeter", "Perimeter", "Overhang perimeter", "Gap fill", "WALL-OUTER", "WALL-INNER",
              "Solid infill", "Top solid infill", "Bridge infill", "SKIN", "Internal infill", "FILL",
              "Wipe tower", "PRIME-TOWER", "Skirt/Brim", "SKIRT", "Custom"]
     features = [FEATURES[i] for i in feature_of_roles(names)]
-    assert features == ["walls"] * 5 + ["skins"] * 4 + ["infill"] * 2 + ["tower"] * 2 + ["other"] * 3
+    assert features == ["walls"] * 6 + ["skins"] * 4 + ["infill"] * 2 + ["tower"] * 2 + ["other"] * 3

@@ -232,7 +232,7 @@ FEATURES = ("walls", "skins", "infill", "tower", "other")
 #: Words of ``;TYPE:`` names (fgslice/PrusaSlicer and Cura) per feature, checked in order.
 _FEATURE_WORDS = (
     (3, ("wipe", "prime", "purge")),
-    (0, ("perimeter", "wall")),
+    (0, ("perimeter", "wall", "gap")),
     (1, ("solid", "skin", "bridge", "top", "bottom")),
     (2, ("infill", "fill")),
 )
@@ -240,7 +240,7 @@ _FEATURE_WORDS = (
 
 def feature_of_roles(names) -> np.ndarray:
     """Index into :data:`FEATURES` of each ``;TYPE:`` role name: wipe/prime/purge tower,
-    walls (perimeters, Cura's WALL-*), skins (solid, top, bottom, bridge, Cura's SKIN),
+    walls (perimeters, gap fill, Cura's WALL-*), skins (solid, top, bottom, bridge, Cura's SKIN),
     sparse infill (Internal infill, Cura's FILL), anything else "other"."""
     out = np.full(len(names), len(FEATURES) - 1, dtype=np.int64)
     for i, name in enumerate(names):
