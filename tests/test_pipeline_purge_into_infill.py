@@ -66,3 +66,26 @@ def test_roles_of_fgslice_prusaslicer_and_cura_map_to_features():
              "Wipe tower", "PRIME-TOWER", "Skirt/Brim", "SKIRT", "Custom"]
     features = [FEATURES[i] for i in feature_of_roles(names)]
     assert features == ["walls"] * 6 + ["skins"] * 4 + ["infill"] * 2 + ["tower"] * 2 + ["other"] * 3
+
+
+@pytest.mark.parametrize("into", [False, True])
+def test_held_back_layers_give_the_same_gcode_with_workers(tmp_path, monkeypatch, into):
+    """Graded in z up to half height: the upper layers are held back until the print
+    ends; one process and two workers write the same bytes."""
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1700000000")
+    path = tmp_path / "half.vcad"
+    path.write_text('fgrade(["min(z/3, 1)", "1 - min(z/3, 1)"], ["blue", "yellow"]) '
+                    '{ translate(0, 0, 3) { cylinder(6, 6); } }\n')
+    design = load_design(path)
+    settings = load_settings(None, {"strategy": "1", "colors": "4", "thumbnails": "",
+                                    "purge_into_infill": str(into).lower()})
+    outputs = []
+    for jobs in (1, 2):
+        out = tmp_path / f"half_{jobs}.gcode"
+        slice_to_gcode(design, settings, out, jobs=jobs)
+        outputs.append(out.read_bytes())
+    assert outputs[0] == outputs[1]
+    text = outputs[0].decode()
+    layers = text.split(";LAYER_CHANGE")
+    with_tower = [i for i, layer in enumerate(layers) if ";TYPE:Wipe tower" in layer]
+    assert with_tower and max(with_tower) < len(layers) / 2 + 1  # no tower over the upper, ungraded half
