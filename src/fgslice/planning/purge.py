@@ -311,8 +311,9 @@ class _LayerPurges:
         plan: the layer's plan.
         start_state: the state the layer starts in (None: unknown, before the first change).
         end_state: the state it ends in.
-        since: volume extruded since its last change, tower purge included, mm^3 (purge
-            into infill only; 0 otherwise).
+        since: volume extruded since its last change, tower purge included and tower
+            base left out (which only lengthens the run), mm^3 (purge into infill only;
+            0 otherwise).
         changes: its SetStates that change the state.
         marks, colors: index and color of each of its SetStates.
         groups: per SetState, the steps that follow it up to the next one, in printing
