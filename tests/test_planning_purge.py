@@ -300,3 +300,25 @@ def test_unsettled_purge_grows_with_a_short_previous_run():
     assert _unsettled_mm3(0.7 * 68.5, settings) == pytest.approx(v_mix * np.log(2))
     assert _unsettled_mm3(68.5 + 10 * v_mix, settings) == pytest.approx(v_mix * np.exp(-11), rel=1e-3)
     assert _unsettled_mm3(100.0, Settings(mixing_share=0.0)) == 0.0
+
+
+def test_purges_into_infill_leave_no_row_of_the_tower_empty():
+    """Shortened purges are laid one after another from the first row and the sparse
+    fill starts at the next free row: every row of the tower gets a line on every layer."""
+    settings = Settings(melt_volume_mm3=20.0, purge_into_infill=True)
+    tower = PurgeTower.plan(FOOTPRINT, settings, changes_per_layer=4, n_layers=4)
+    out = list(insert_purges(iter(walls_and_infill_plans(4, infill_lines=2)), tower, settings, PALETTE))
+    w = tower.line_width
+    for plan in out:
+        steps = plan.steps
+        first = next(i for i, step in enumerate(steps) if isinstance(step, SetState))
+        tower_paths = [(i, p) for i, p in enumerate(steps) if isinstance(p, Path) and p.role is Role.WIPE_TOWER]
+        purges = [p for i, p in tower_paths if i > first]  # the base comes before the first SetState
+        fill = [p for i, p in tower_paths if i < first and not p.closed]
+        rows = np.round((np.concatenate([p.points[:, 1] for p in purges]) - tower.y0 - w) / w).astype(int)
+        used = np.unique(rows)
+        assert len(purges) >= 3 and used[0] == 0
+        assert np.array_equal(used, np.arange(used[-1] + 1))  # contiguous from the first row
+        (sparse,) = fill
+        assert sparse.points[:, 1].min() == pytest.approx(tower.y0 + w + w * (used[-1] + 1))
+        assert sparse.points[:, 1].max() == pytest.approx(tower.y0 + w * tower.rows)

@@ -176,14 +176,44 @@ class PurgeTower:
             points = np.concatenate([points[: i + 1], cut]) if cut else points[: i + 1]
         return Path(points, Role.WIPE_TOWER, color, self.line_width, height)
 
+    @cached_property
+    def _serpentine(self) -> tuple[np.ndarray, np.ndarray]:
+        """One back-and-forth line over all the tower's rows, computed once per tower:
+        points ``(2 * rows, 2)`` mm (row ``r`` from point ``2 r`` to ``2 r + 1``) and the
+        arc length at each point, mm."""
+        w = self.line_width
+        xa, xb = self.x0 + w, self.x1 - w
+        x = np.tile([xa, xb, xb, xa], (self.rows + 1) // 2)[: 2 * self.rows]
+        points = np.c_[x, np.repeat(self.y0 + w + w * np.arange(self.rows), 2)]
+        return points, np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(points, axis=0).T))])
+
+    def packed_purge_path(self, row: int, length: float, color: int, height: float) -> tuple[Path, int]:
+        """Back-and-forth lines of ``length`` mm from the start of ``row`` on, for purges
+        laid one after another (purge into infill, where they are shorter than a slot):
+        the path and the first row left free after it."""
+        points, arc = self._serpentine
+        a, b = arc[2 * row], arc[2 * row] + length
+        if b > arc[-1] + 1e-6:
+            raise ValueError(f"purge of {length:.1f} mm from row {row} exceeds the tower's {self.rows} rows")
+        inside = np.flatnonzero((arc > a + 1e-9) & (arc < b - 1e-9))
+        end = min(max(int(np.searchsorted(arc, b, side="right")) - 1, 0), len(arc) - 2)
+        t = min((b - arc[end]) / (arc[end + 1] - arc[end]), 1.0)
+        last = points[end] + t * (points[end + 1] - points[end])
+        line = np.concatenate([points[2 * row : 2 * row + 1], points[inside], last[None]])
+        return Path(line, Role.WIPE_TOWER, color, self.line_width, height), end // 2 + 1
+
     def base_paths(self, used_slots: int, color: int, height: float) -> list[Path]:
-        """The tower's perimeter and a sparse fill over the rows the purges left empty."""
+        """The tower's perimeter and a sparse fill over the rows the purges left empty
+        (those of the slots after the first ``used_slots``)."""
+        return self.base_paths_from(used_slots * self.rows_per_change, color, height)
+
+    def base_paths_from(self, first_free: int, color: int, height: float) -> list[Path]:
+        """The tower's perimeter and a sparse fill over the rows from ``first_free`` on."""
         w = self.line_width
         h2 = w / 2
         ring = np.array([[self.x0 + h2, self.y0 + h2], [self.x1 - h2, self.y0 + h2],
                          [self.x1 - h2, self.y1 - h2], [self.x0 + h2, self.y1 - h2]])
         paths = [Path(ring, Role.WIPE_TOWER, color, w, height, closed=True)]
-        first_free = used_slots * self.rows_per_change
         if first_free >= self.rows:
             return paths
         ya, yb = self.y0 + w + w * first_free, self.y0 + w * self.rows
@@ -322,6 +352,10 @@ class _LayerPurges:
         lengths: per SetState, the purge left for the tower, mm (0 where the state does
             not change or the infill took it all).
         needs_tower: a tower purge follows a change from a known state.
+        packed_rows: the tower purges are laid one after another from the tower's first
+            row (purge into infill: they are shorter than a change's slot, and the sparse
+            fill takes every row after the last one, so no row stays empty), rather than
+            each in its change's slot.
     """
 
     plan: LayerPlan
@@ -334,6 +368,7 @@ class _LayerPurges:
     groups: list[tuple[np.ndarray, np.ndarray]]
     lengths: list[float]
     needs_tower: bool
+    packed_rows: bool = False
 
     @classmethod
     def of(cls, plan: LayerPlan, state: int | None, since: float, tower: PurgeTower, settings: Settings,
@@ -379,33 +414,42 @@ class _LayerPurges:
                 lengths.append(length)
             needs |= state is not None and lengths[-1] > 0
             state = color
-        return cls(plan, start, state, since, changes, marks, colors, groups, lengths, needs)
+        return cls(plan, start, state, since, changes, marks, colors, groups, lengths, needs,
+                   settings.purge_into_infill)
 
     def with_tower(self, tower: PurgeTower, made: dict, stats: PurgeStats) -> LayerPlan:
         """The plan with the tower's perimeter and fill and the purges; ``made`` caches
         tower paths by what makes them, ``stats`` is added to."""
         plan, state = self.plan, self.start_state
-        slots = sum(length > 0 for length in self.lengths)
         if len(made) > MADE_PATHS:
             made.clear()
-        base_key = ("base", slots, CURRENT_STATE if state is None else state, plan.height)
-        if base_key not in made:
-            paths = tower.base_paths(*base_key[1:])
-            made[base_key] = (paths, float(_volumes(paths).sum()))
-        base, base_volume = made[base_key]
         purges: list[list[Path]] = []
-        purge_volume = 0.0
+        purge_volume, row = 0.0, 0
         for color, length in zip(self.colors, self.lengths):
             if length <= 0:
                 purges.append([])
                 continue
-            key = (sum(map(len, purges)), length, color, plan.height)
-            if key not in made:
-                path = tower.purge_path(*key)
-                made[key] = (path, float(_volumes([path])[0]))
-            path, volume = made[key]
+            if self.packed_rows:
+                key = ("row", row, length, color, plan.height)
+                if key not in made:
+                    path, after = tower.packed_purge_path(*key[1:])
+                    made[key] = (path, float(_volumes([path])[0]), after)
+                path, volume, row = made[key]
+            else:
+                key = (sum(map(len, purges)), length, color, plan.height)
+                if key not in made:
+                    path = tower.purge_path(*key)
+                    made[key] = (path, float(_volumes([path])[0]))
+                path, volume = made[key]
             purges.append([path])
             purge_volume += volume
+        if not self.packed_rows:
+            row = sum(map(len, purges)) * tower.rows_per_change
+        base_key = ("base", row, CURRENT_STATE if state is None else state, plan.height)
+        if base_key not in made:
+            paths = tower.base_paths_from(*base_key[1:])
+            made[base_key] = (paths, float(_volumes(paths).sum()))
+        base, base_volume = made[base_key]
         stats.purge_mm3 += purge_volume
         stats.changes += self.changes
         stats.tower_base_mm3 += base_volume
