@@ -197,3 +197,15 @@ def test_the_band_under_the_rim_is_solid_on_the_slabs_top_layers(tmp_path, ancho
     if anchored:
         layer = printing & np.isclose(program.end[:, 2], 5.0) & (roles != "Skirt/Brim") & (roles != "Wipe tower")
         assert program.e[layer].sum() * area == pytest.approx(box.area * 0.2, rel=0.03)
+
+
+def test_zipper_teeth_across_a_boundary_the_field_only_approaches_fit_the_tower(tmp_path):
+    """A uniform 0.49 mixture lies in one color bin, but within the zipper band of the
+    boundary at 0.5: the teeth print the color across it, so the tower is sized for the
+    two colors of a layer."""
+    program, roles, printing, stats = _slice_text(
+        tmp_path, 'fgrade(["0.49", "0.51"], ["blue", "yellow"]) { translate(0, 0, 1) { rectprism(20, 10, 2); } }\n',
+        zipper=10)
+    part = printing & (roles != "Skirt/Brim") & (roles != "Wipe tower")
+    assert len(set(program.state[part].tolist())) == 2
+    assert stats["purge_mm3"] > 0

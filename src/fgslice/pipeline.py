@@ -204,7 +204,8 @@ def _colors_in_outline(job: SliceJob, index: int) -> int:
 
     What the samples miss is bounded by ``delta``, twice the largest difference of a
     fraction between neighbouring samples (grid neighbours inside the outline, consecutive
-    vertices). Two materials: every bin that ``[min - delta, max + delta]`` of the first
+    vertices), plus the zipper band (``zipper`` percent of the range: its teeth take the
+    color across a boundary the field only approaches). Two materials: every bin that ``[min - delta, max + delta]`` of the first
     fraction meets. More materials: one color when no fraction varies (``delta = 0``,
     e.g. a part of one material), else the palette size.
     """
@@ -221,7 +222,7 @@ def _colors_in_outline(job: SliceJob, index: int) -> int:
     grid[inside] = f[: int(inside.sum())]
     steps = [np.diff(grid, axis=0).reshape(-1, f.shape[1]), np.diff(grid, axis=1).reshape(-1, f.shape[1]),
              np.diff(f[int(inside.sum()) :], axis=0)]
-    delta = 2.0 * max(float(np.abs(d[np.isfinite(d)]).max(initial=0.0)) for d in steps)
+    delta = 2.0 * max(float(np.abs(d[np.isfinite(d)]).max(initial=0.0)) for d in steps) + job.settings.zipper / 100
     size = job.palette.size
     if job.palette.n_materials != 2:
         return 1 if delta == 0.0 else size
