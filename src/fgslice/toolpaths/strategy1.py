@@ -105,6 +105,11 @@ class Cut:
     bounded_crossing: np.ndarray
 
 
+def _no_runs() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The bounded-run arrays of a :class:`Cut` without any cut."""
+    return np.empty(0), np.empty(0, dtype=np.int64), np.empty(0, dtype=bool)
+
+
 def _complex(xy: np.ndarray) -> np.ndarray:
     """``(N, 2)`` float points as ``(N,)`` complex numbers ``x + iy`` (a view when possible)."""
     return np.ascontiguousarray(xy, dtype=np.float64).view(np.complex128)[:, 0]
@@ -325,9 +330,9 @@ def cut_by_color(paths: list[Path], field, palette, z: float, layer_index: int, 
     """Cut ``paths`` into pieces of one color each (see the module docstring), listed in
     the order of ``paths`` and along each path."""
     if not paths:
-        return Cut([], np.empty(0), np.empty(0, dtype=np.int64), np.empty(0, dtype=bool))
+        return Cut([], *_no_runs())
     if palette.size == 1:
-        return Cut([p.with_color(0) for p in paths], np.empty(0), np.empty(0, dtype=np.int64), np.empty(0, dtype=bool))
+        return Cut([p.with_color(0) for p in paths], *_no_runs())
     w = settings.bead_width
     beta = settings.zipper
     lines = _Lines.of(paths)
