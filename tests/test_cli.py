@@ -154,6 +154,9 @@ def test_simulate_reports_fidelity_and_writes_stats_and_png(design, tmp_path):
     assert 0 <= data["mean_error"] <= data["p95_error"] <= 1
     assert data["palette_size"] == 4
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    off = data["transition"]["off_color_mm3"]
+    line = next(x for x in result.output.splitlines() if x.startswith("transition material"))
+    assert all(f"{k} {v:.1f}" in line for k, v in off.items() if v >= 0.05)
 
 
 def test_calibrate_lookahead_from_measurement_and_volume(tmp_path):

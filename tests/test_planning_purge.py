@@ -158,3 +158,156 @@ def test_layers_with_the_same_changes_share_their_tower_paths():
     assert all(a is b for a, b in zip(tower_paths[2], tower_paths[4]))
     volume = sum(p.length * bead_area(p.width, p.height) for paths in tower_paths for p in paths)
     assert stats.tower_mm3 == pytest.approx(volume, rel=1e-12)
+
+
+def layer_plans_by_layer(colors_of_layers):
+    """Like :func:`layer_plans`, with the colors of each layer given (traversal order)."""
+    plans, position = [], np.array([0.0, 0.0])
+    for k, colors in enumerate(colors_of_layers):
+        paths = [Path(np.array([[80.0 + 12.5 * c + 0.4 * i, 80.0], [80.0 + 12.5 * c + 0.4 * i, 120.0]]),
+                      Role.SOLID_INFILL, c, 0.4, 0.2) for c in colors for i in range(30)]
+        plan = order_layer(LayerPaths(k, 0.2 * (k + 1), 0.2, paths), np.array(colors), position, "walls_first")
+        position = plan.paths[-1].end
+        plans.append(plan)
+    return plans
+
+
+def tower_layers(plans):
+    return [plan.index for plan in plans if any(p.role is Role.WIPE_TOWER for p in plan.paths)]
+
+
+def test_the_tower_ends_at_the_last_layer_with_a_change():
+    settings = Settings(melt_volume_mm3=20.0)
+    # changes on layers 0-2 (and the first color of the print), then color 1 to the top
+    plans = layer_plans_by_layer([(0, 1), (1, 2), (2, 1)] + [(1,)] * 5)
+    tower = PurgeTower.plan(FOOTPRINT, settings, changes_per_layer=2, n_layers=8)
+    stats = PurgeStats()
+    out = list(insert_purges(iter(plans), tower, settings, PALETTE, stats))
+    assert [plan.index for plan in out] == list(range(8))
+    assert tower_layers(out) == [0, 1, 2]
+    for before, after in zip(plans[3:], out[3:]):
+        assert after.paths == before.paths
+    assert stats.changes == 4  # None -> 0, 0 -> 1, 1 -> 2, 2 -> 1
+    part_mm3 = sum(p.length * bead_area(p.width, p.height) for plan in plans for p in plan.paths)
+    assert stats.extruded_mm3 == pytest.approx(part_mm3 + stats.tower_mm3, rel=1e-9)
+
+
+def test_layers_without_a_change_below_a_later_change_carry_the_tower():
+    settings = Settings(melt_volume_mm3=20.0)
+    plans = layer_plans_by_layer([(0,)] * 4 + [(0, 3)])
+    tower = PurgeTower.plan(FOOTPRINT, settings, changes_per_layer=2, n_layers=5)
+    out = list(insert_purges(iter(plans), tower, settings, PALETTE))
+    assert tower_layers(out) == [0, 1, 2, 3, 4]  # the tower stands on the bed, not on air
+    records = [r for r in purges_per_change(out) if r[1] != r[2]]
+    assert [(r[0], r[1], r[2]) for r in records] == [(0, None, 0), (4, 0, 3)]
+    assert all(r[3] > 0 for r in records)
+
+
+def test_a_print_that_never_changes_state_has_no_tower():
+    settings = Settings(melt_volume_mm3=20.0)
+    plans = layer_plans_by_layer([(2,)] * 6)
+    tower = PurgeTower.plan(FOOTPRINT, settings, changes_per_layer=1, n_layers=6)
+    stats = PurgeStats()
+    out = list(insert_purges(iter(plans), tower, settings, PALETTE, stats))
+    assert tower_layers(out) == []
+    assert (stats.tower_mm3, stats.changes) == (0.0, 0)
+    assert all(a is b for a, b in zip(out, plans))
+
+
+def walls_and_infill_plans(n_layers, colors=(0, 1, 2, 3), infill_lines=10):
+    """Layers where each color owns a band with a wall loop and ``infill_lines`` sparse lines."""
+    plans, position = [], np.array([0.0, 0.0])
+    for k in range(n_layers):
+        paths = []
+        for c in colors:
+            x0 = 80.0 + 12.5 * c
+            paths.append(Path(np.array([[x0, 80.0], [x0 + 12, 80.0], [x0 + 12, 120.0], [x0, 120.0]]),
+                              Role.EXTERNAL_PERIMETER, c, 0.4, 0.2, closed=True))
+            paths += [Path(np.array([[x0 + 1 + i, 81.0], [x0 + 1 + i, 119.0]]), Role.INTERNAL_INFILL, c, 0.4, 0.2)
+                      for i in range(infill_lines)]
+        order = np.array(colors) if k % 2 == 0 else np.array(colors)[::-1]
+        plan = order_layer(LayerPaths(k, 0.2 * (k + 1), 0.2, paths), order, position, "walls_first")
+        position = plan.paths[-1].end
+        plans.append(plan)
+    return plans
+
+
+@pytest.mark.parametrize("infill_lines", [2, 10])
+def test_purge_into_infill_prints_the_new_colors_infill_first_and_the_tower_only_what_is_left(infill_lines):
+    from fgslice.planning.purge import _unsettled_mm3
+
+    settings = Settings(melt_volume_mm3=20.0, purge_into_infill=True)
+    plans = walls_and_infill_plans(4, infill_lines=infill_lines)
+    tower = PurgeTower.plan(FOOTPRINT, settings, changes_per_layer=4, n_layers=4)
+    stats = PurgeStats()
+    out = list(insert_purges(iter(plans), tower, settings, PALETTE, stats))
+    area = settings.bead_area
+    since, state = 0.0, None
+    for before, after in zip(plans, out):
+        # the same part paths, only reordered within each color
+        assert sorted(map(id, after.paths)) == sorted(map(id, before.paths + [p for p in after.paths if p.role is Role.WIPE_TOWER]))
+        steps = after.steps
+        marks = [i for i, s in enumerate(steps) if isinstance(s, SetState)]
+        since += sum(p.length * area for p in steps[: marks[0]] if isinstance(p, Path) and p.role is not Role.WIPE_TOWER)
+        for i, j in zip(marks, marks[1:] + [len(steps)]):
+            group = steps[i + 1 : j]
+            color = steps[i].color
+            roles = [p.role for p in group]
+            if color == state:
+                assert Role.WIPE_TOWER not in roles
+                since += sum(p.length * area for p in group)
+                continue
+            n_infill = roles.count(Role.INTERNAL_INFILL)
+            assert roles[:n_infill] == [Role.INTERNAL_INFILL] * n_infill  # the new color's infill first
+            poured = sum(p.length * area for p in group[:n_infill])
+            tower_mm3 = sum(p.length * area for p in group if p.role is Role.WIPE_TOWER)
+            expected = min(max(0.0, 20.0 + _unsettled_mm3(since, settings) - poured), 20.0)
+            assert tower_mm3 == pytest.approx(expected, rel=1e-6, abs=1e-6)
+            rest = roles[n_infill + (tower_mm3 > 0):]
+            assert rest and all(r is Role.EXTERNAL_PERIMETER for r in rest)  # then walls
+            assert all(p.color == color for p in group if p.role is not Role.WIPE_TOWER)
+            since = sum(p.length * area for p in group)  # the tower purge included
+            state = color
+    part_mm3 = sum(p.length * bead_area(p.width, p.height) for plan in plans for p in plan.paths)
+    assert stats.extruded_mm3 == pytest.approx(part_mm3 + stats.tower_mm3, rel=1e-9)
+    plain = PurgeStats()
+    list(insert_purges(iter(walls_and_infill_plans(4, infill_lines=infill_lines)), tower,
+                       Settings(melt_volume_mm3=20.0), PALETTE, plain))
+    assert stats.purge_mm3 < plain.purge_mm3
+    if infill_lines == 10:  # 10 lines of 38 mm (27 mm^3) take every purge: no tower at all
+        assert stats.tower_mm3 == 0.0 and tower_layers(out) == []
+    else:
+        assert tower_layers(out) == [0, 1, 2, 3]
+
+
+def test_unsettled_purge_grows_with_a_short_previous_run():
+    from fgslice.planning.purge import _unsettled_mm3
+
+    settings = Settings(melt_volume_mm3=68.5, mixing_share=0.3)
+    v_mix = 0.3 * 68.5
+    assert _unsettled_mm3(0.0, settings) == pytest.approx(v_mix * np.log(2))
+    assert _unsettled_mm3(0.7 * 68.5, settings) == pytest.approx(v_mix * np.log(2))
+    assert _unsettled_mm3(68.5 + 10 * v_mix, settings) == pytest.approx(v_mix * np.exp(-11), rel=1e-3)
+    assert _unsettled_mm3(100.0, Settings(mixing_share=0.0)) == 0.0
+
+
+def test_purges_into_infill_leave_no_row_of_the_tower_empty():
+    """Shortened purges are laid one after another from the first row and the sparse
+    fill starts at the next free row: every row of the tower gets a line on every layer."""
+    settings = Settings(melt_volume_mm3=20.0, purge_into_infill=True)
+    tower = PurgeTower.plan(FOOTPRINT, settings, changes_per_layer=4, n_layers=4)
+    out = list(insert_purges(iter(walls_and_infill_plans(4, infill_lines=2)), tower, settings, PALETTE))
+    w = tower.line_width
+    for plan in out:
+        steps = plan.steps
+        first = next(i for i, step in enumerate(steps) if isinstance(step, SetState))
+        tower_paths = [(i, p) for i, p in enumerate(steps) if isinstance(p, Path) and p.role is Role.WIPE_TOWER]
+        purges = [p for i, p in tower_paths if i > first]  # the base comes before the first SetState
+        fill = [p for i, p in tower_paths if i < first and not p.closed]
+        rows = np.round((np.concatenate([p.points[:, 1] for p in purges]) - tower.y0 - w) / w).astype(int)
+        used = np.unique(rows)
+        assert len(purges) >= 3 and used[0] == 0
+        assert np.array_equal(used, np.arange(used[-1] + 1))  # contiguous from the first row
+        (sparse,) = fill
+        assert sparse.points[:, 1].min() == pytest.approx(tower.y0 + w + w * (used[-1] + 1))
+        assert sparse.points[:, 1].max() == pytest.approx(tower.y0 + w * tower.rows)

@@ -15,10 +15,10 @@ def plate():
     return shapely.MultiPolygon([shapely.box(0, 0, 60, 40).difference(shapely.Point(30, 20).buffer(6, quad_segs=32))])
 
 
-def split(below, above, density=20.0):
+def split(below, above, density=20.0, **anchoring):
     outline = plate()
     inner = make_walls(outline, 2, W, H).inner
-    settings = Settings(strategy=1, walls=2, infill_density=density, top_layers=2, bottom_layers=2)
+    settings = Settings(strategy=1, walls=2, infill_density=density, top_layers=2, bottom_layers=2, **anchoring)
     return inner, split_inner(inner, outline, below, above, settings)
 
 
@@ -35,7 +35,7 @@ def test_inside_a_part_everything_is_sparse():
 def test_parts_partition_the_inner_area_by_the_neighbours():
     small = shapely.box(15, 5, 45, 35)  # smaller layers above: a top ring
     shifted = shapely.box(-5, -5, 40, 45)  # shifted layers below: a bottom strip
-    inner, got = split([plate(), shifted], [small, small])
+    inner, got = split([plate(), shifted], [small, small], skin_margin=0.0, sparse_min_width=0.0)
     top, solid, sparse = areas(got)
     assert top + solid + sparse == pytest.approx(inner.area, rel=1e-9)
     assert shapely.union_all([got.top, got.solid, got.sparse]).symmetric_difference(inner).area < 1e-6
@@ -75,3 +75,37 @@ def test_covered_is_the_region_within_every_neighbour_that_does_not_cover_it():
     assert part.equals(shapely.box(0, 0, 6, 4))
     assert covered(region, [wide, left], 2).equals(shapely.box(0, 0, 6, 10))
     assert covered(region, [wide, wide], 2) is region
+
+
+def test_skins_extend_into_the_sparse_area_by_the_margin():
+    small = shapely.box(15, 5, 45, 35)  # smaller layers above: a top ring around it
+    inner, plain = split([plate()] * 2, [small, small], skin_margin=0.0, sparse_min_width=0.0)
+    _, got = split([plate()] * 2, [small, small], skin_margin=1.5, sparse_min_width=0.0)
+    assert got.top.equals(plain.top)  # the exposed skin stays top skin
+    grown = plain.sparse.intersection(plain.top.buffer(1.5))
+    assert got.solid.area == pytest.approx(plain.solid.area + grown.area, rel=1e-6)
+    assert got.sparse.area == pytest.approx(plain.sparse.area - grown.area, rel=1e-6)
+    # no sparse point within the margin of the top skin
+    assert shapely.distance(got.sparse, plain.top) == pytest.approx(1.5, abs=1e-3)
+    assert shapely.union_all([got.top, got.solid, got.sparse]).symmetric_difference(inner).area < 1e-6
+
+
+def test_sparse_strips_too_narrow_for_infill_become_solid():
+    # the layers above leave a 1.5 mm slot open (top skin) 2.8 mm inside the walls
+    above = shapely.box(-1, -1, 61, 41).difference(shapely.box(3.5, 5, 5.0, 35))
+    inner, slot = split([plate()] * 2, [above] * 2, skin_margin=0.0, sparse_min_width=2.0)
+    strip = inner.intersection(shapely.box(3.5, 5, 5.0, 35))
+    assert slot.top.symmetric_difference(strip).area < 1e-6
+    _, got = split([plate()] * 2, [above] * 2, skin_margin=0.0, sparse_min_width=4.0)
+    # the sparse strip between the slot and the walls (x 0.74-3.5, 2.8 mm wide) is
+    # narrower than 4 mm and becomes solid; the wide rest stays sparse
+    assert slot.solid.is_empty  # 2 mm: wide enough
+    left = inner.intersection(shapely.box(-1, 7, 3.5, 33))
+    assert got.solid.covers(left)
+    assert got.sparse.area == pytest.approx(inner.area - strip.area - got.solid.area, rel=1e-6)
+    assert got.sparse.area > 0.8 * inner.area
+
+
+def test_a_layer_without_skins_and_without_narrow_parts_is_unchanged():
+    inner, got = split([plate()] * 2, [plate()] * 2)
+    assert got.sparse.equals(inner) and got.top.is_empty and got.solid.is_empty

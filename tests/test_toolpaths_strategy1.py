@@ -126,11 +126,29 @@ def test_short_piece_warning_suggests_a_smaller_palette():
     assert short is not None and short.shortest_mm < 5 and 0 < short.short <= short.total
     # bands of 60/N mm; pieces along x-running walls are ~60/N long: N <= 12 keeps 5 mm
     assert 6 <= short.suggestion <= 12
-    (message,) = summarize_short_pieces([short, short], 10, 5)
+    (message,) = summarize_short_pieces([short, short], 10, 5, 32)
     assert f"at most {short.suggestion} colors" in message and "on 2 of 10 layers" in message
-    (_, short), _ = run(settings, colors=short.suggestion)
-    if short:  # only a few grazing pieces (around the hole) may stay short
-        assert short.short <= 0.15 * short.total
+    assert short.by_kind[0] == short.short  # no infill: all in walls
+    assert f"{2 * short.short} in walls" in message
+    (_, fewer), _ = run(settings, colors=short.suggestion)
+    if fewer:  # only a few grazing pieces (around the hole) may stay short
+        assert fewer.short - fewer.grazing <= 0.15 * fewer.total
+    # advice that would not help is not given: a palette no smaller than the one in use
+    (message,) = summarize_short_pieces([short], 10, 5, short.suggestion)
+    assert "palette of at most" not in message
+
+
+def test_short_pieces_that_graze_a_boundary_get_no_palette_advice():
+    """A bar graded along x, 4 colors: the short pieces are infill lines turning next to a
+    band edge (the same color on both sides), whatever the palette size."""
+    settings = Settings(strategy=1, walls=2, infill_density=20, min_segment_mm=5, top_layers=0, bottom_layers=0)
+    for colors in (4, 8):
+        (_, short), _ = run(settings, colors=colors)
+        assert short is not None and short.grazing > 0
+        (message,) = summarize_short_pieces([short], 1, 5, colors)
+        if short.grazing == short.short:
+            assert "palette of at most" not in message
+        assert f"{short.grazing} only graze a color boundary" in message
 
 
 def test_sparse_sampling_keeps_every_piece_in_its_color_on_a_curved_field():

@@ -253,6 +253,9 @@ def simulate_command(gcode, design_path, materials, profile, sets, melt_volume, 
         f"{report.mean_error:.4f}, p95 {report.p95_error:.4f}; within half a bin {half_bin}; "
         f"CIEDE2000 mean {report.mean_delta_e:.2f}, p95 {report.p95_delta_e:.2f}"
     )
+    if "transition" in stats:
+        off = ", ".join(f"{k} {v:.1f}" for k, v in stats["transition"]["off_color_mm3"].items() if v >= 0.05)
+        click.echo(f"transition material (off-color volume, mm3): {off or 'none'}")
     if png_path:
         drawn = plot_layer_error(result, png_path, layer)
         click.echo(f"{png_path}: composition error of layer {drawn}")

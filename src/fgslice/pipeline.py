@@ -190,14 +190,13 @@ def _part_footprint(job: SliceJob) -> shapely.Geometry:
 
 
 def _max_colors_per_layer(job: SliceJob, jobs: int, scheduler: str | None) -> int:
-    """An upper bound of the colors a layer holds (sizes the purge tower).
+    """An upper bound of the colors a layer holds, hence of its state changes (sizes the
+    purge tower).
 
     The bound cannot exceed the palette size, so the layer of largest outline area
     (likeliest to span the most colors) is tried first: when it reaches the palette size,
     the other layers need no sampling.
     """
-    if job.palette.n_materials != 2:
-        return job.palette.size
     if not job.layers:
         return 1
     widest = int(np.argmax(shapely.area(job.outlines)))
@@ -207,18 +206,35 @@ def _max_colors_per_layer(job: SliceJob, jobs: int, scheduler: str | None) -> in
 
 
 def _colors_in_outline(job: SliceJob, index: int) -> int:
-    """Colors a layer's outline spans: all bins between the lowest and highest sampled, one
-    more on each side for what a coarse sampling (:data:`COLOR_SAMPLE_MM`) can miss."""
+    """Colors a layer's outline spans, from the field sampled on a :data:`COLOR_SAMPLE_MM`
+    grid inside it and at its vertices.
+
+    What the samples miss is bounded by ``delta``, twice the largest difference of a
+    fraction between neighbouring samples (grid neighbours inside the outline, consecutive
+    vertices), plus the zipper band (``zipper`` percent of the range: its teeth take the
+    color across a boundary the field only approaches). Two materials: every bin that ``[min - delta, max + delta]`` of the first
+    fraction meets. More materials: one color when no fraction varies (``delta = 0``,
+    e.g. a part of one material), else the palette size.
+    """
     outline = job.outlines[index]
     if outline.is_empty:
         return 0
     x0, y0, x1, y1 = outline.bounds
     xs, ys = np.meshgrid(np.arange(x0, x1 + COLOR_SAMPLE_MM, COLOR_SAMPLE_MM), np.arange(y0, y1 + COLOR_SAMPLE_MM, COLOR_SAMPLE_MM))
-    pts = np.column_stack([xs.ravel(), ys.ravel()])
-    pts = np.vstack([pts[shapely.contains_xy(outline, pts[:, 0], pts[:, 1])], shapely.get_coordinates(outline)])
+    inside = shapely.contains_xy(outline, xs, ys)
+    vertices = shapely.get_coordinates(outline)
     z = job.layers[index][1] - job.layers[index][2] / 2
-    colors = job.palette.color_of(BedField(job.design, job.placement).fractions(pts, z))
-    return int(min(colors.max() + 1, job.palette.size - 1) - max(colors.min() - 1, 0) + 1)
+    f = BedField(job.design, job.placement).fractions(np.vstack([np.c_[xs[inside], ys[inside]], vertices]), z)
+    grid = np.full(xs.shape + (f.shape[1],), np.nan)
+    grid[inside] = f[: int(inside.sum())]
+    steps = [np.diff(grid, axis=0).reshape(-1, f.shape[1]), np.diff(grid, axis=1).reshape(-1, f.shape[1]),
+             np.diff(f[int(inside.sum()) :], axis=0)]
+    delta = 2.0 * max(float(np.abs(d[np.isfinite(d)]).max(initial=0.0)) for d in steps) + job.settings.zipper / 100
+    size = job.palette.size
+    if job.palette.n_materials != 2:
+        return 1 if delta == 0.0 else size
+    lo, hi = job.palette.color_of(np.array([[f[:, 0].min() - delta, 0.0], [f[:, 0].max() + delta, 0.0]]))
+    return int(hi - lo + 1)
 
 
 def _speed_of(settings: Settings) -> Callable[[Path], float]:
@@ -372,7 +388,7 @@ def slice_to_gcode(
 
     stats.setdefault("warnings", [])
     stats["warnings"] = list(stats["warnings"]) + strategy1.summarize_short_pieces(
-        short_records, total, settings.min_segment_mm
+        short_records, total, settings.min_segment_mm, palette.size
     ) + _sliver_warning(reassigned, total, settings)
     if settings.strategy == 2 and attributes is not None and "infill_density" in attributes.names:
         stats["warnings"].append("strategy 2 fills every face densely: the infill_density attribute is ignored")

@@ -63,6 +63,8 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     wall_order: Annotated[Literal["outer_first", "inner_first"], Meta(description="strategy 1 perimeter order")] = "inner_first"
     top_layers: Annotated[int, Meta(ge=0, le=100, description="strategy 1 top solid layers")] = 3
     bottom_layers: Annotated[int, Meta(ge=0, le=100, description="strategy 1 bottom solid layers")] = 3
+    skin_margin: Annotated[float, Meta(ge=0, le=50, description="strategy 1: top/bottom solid areas extend this far into the sparse area around them, mm")] = 0.8
+    sparse_min_width: Annotated[float, Meta(ge=0, le=50, description="strategy 1: sparse areas narrower than this become solid, mm")] = 2.0
     infill_density: Annotated[float, Meta(ge=0, le=100, description="strategy 1 sparse infill, percent")] = 20.0
     infill_pattern: Annotated[Literal["rectilinear", "concentric"], Meta(description="strategy 1 sparse infill pattern")] = "rectilinear"
     infill_angle: Annotated[float, Meta(ge=-360, le=360, description="direction of rectilinear lines on even layers, degrees")] = 45.0
@@ -84,6 +86,7 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     melt_volume_mm3: Annotated[float, Meta(ge=0, le=10000, description="melt chamber volume V_melt, mm^3")] = 68.5
     purge_size: Annotated[Literal["full", "model"], Meta(description="purge length: full (V_melt every change) or model (what the dead-volume model says the change needs to reach purge_tolerance)")] = "full"
     purge_tolerance: Annotated[float | Literal["auto"], Meta(description="purge_size = model: composition distance (0-1; degC for the temperature dialect) left after a purge; 'auto' is a tenth of a palette bin")] = "auto"
+    purge_into_infill: Annotated[bool, Meta(description="strategy 1: after a state change print the new color's sparse infill first, counting it against the purge")] = False
     purge_tower_x: Annotated[float | None, Meta(description="tower center X (bed frame), mm; None: automatic")] = None
     purge_tower_y: Annotated[float | None, Meta(description="tower center Y (bed frame), mm; None: automatic")] = None
     lookahead_mm: Annotated[float | Literal["auto"], Meta(description="issue state changes this far ahead (extruded path length), mm; 'auto' derives it from melt_volume_mm3")] = 0.0

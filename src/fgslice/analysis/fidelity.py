@@ -25,7 +25,7 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
-from fgslice.analysis.simulate import SimulationResult, mixing_deposit
+from fgslice.analysis.simulate import FEATURES, SimulationResult, mixing_deposit
 from fgslice.colors import materials_rgba, srgb_to_linear
 from fgslice.design.base import Material
 from fgslice.errors import OutputError, SettingsError
@@ -207,11 +207,38 @@ def fidelity_by_palette(
     return out
 
 
+def transition_account(result: SimulationResult) -> dict[str, dict[str, float | None]]:
+    """Where the transition material went, by feature (:data:`FEATURES`).
+
+    ``off_color_mm3``: over every extruded segment (tower included), its volume times the
+    composition error of what it deposits against the state commanded while it is
+    printed: the material still on its way from an earlier state (mm³). A purge's first
+    part, or the sparse infill that takes it with ``purge_into_infill``, holds most of it.
+    ``mean_error``: the volume-weighted composition error against the design of the part
+    segments of each feature (None where a feature has none). Empty without features.
+    """
+    if result.feature is None:
+        return {}
+    count = len(FEATURES)
+    off = composition_error(result.deposited, result.commanded) * result.volume
+    off_color = np.bincount(result.feature, weights=off, minlength=count)
+    part = result.part
+    weights = result.volume[part]
+    error = composition_error(result.deposited[part], result.designed[part]) * weights
+    sums = np.bincount(result.feature[part], weights=error, minlength=count)
+    volumes = np.bincount(result.feature[part], weights=weights, minlength=count)
+    return {
+        "off_color_mm3": {name: float(v) for name, v in zip(FEATURES, off_color)},
+        "mean_error": {name: float(e / v) if v > 0 else None for name, e, v in zip(FEATURES, sums, volumes)},
+    }
+
+
 def simulation_stats(result: SimulationResult, report: FidelityReport) -> dict:
     """Everything ``fgslice simulate --stats`` writes: the model, the print and the metrics.
 
-    Adds ``worst_layer`` (highest volume-weighted mean error) and ``layer_mean_error``
-    (per layer index, part segments only; null for layers without any).
+    Adds ``worst_layer`` (highest volume-weighted mean error), ``layer_mean_error``
+    (per layer index, part segments only; null for layers without any) and ``transition``
+    (:func:`transition_account`).
     """
     model = result.model
     error = composition_error(result.deposited, result.designed)[result.part]
@@ -233,6 +260,7 @@ def simulation_stats(result: SimulationResult, report: FidelityReport) -> dict:
         **report.as_dict(),
         "worst_layer": max(known)[1] if known else None,
         "layer_mean_error": per_layer,
+        **({"transition": account} if (account := transition_account(result)) else {}),
     }
 
 

@@ -211,6 +211,7 @@ class SegmentTrace:
         layer: ``(n,)`` 0-based layer index.
         line: ``(n,)`` 1-based line in the G-code (0 when not from a file).
         part: ``(n,)`` True for moves that build the part (not skirt, purge or custom).
+        feature: ``(n,)`` index into :data:`FEATURES` of each move's role (None: unknown).
     """
 
     start: np.ndarray
@@ -223,6 +224,29 @@ class SegmentTrace:
     layer: np.ndarray
     line: np.ndarray
     part: np.ndarray
+    feature: np.ndarray | None = None
+
+
+#: What a move prints, for the account of transition material (:func:`feature_of_roles`).
+FEATURES = ("walls", "skins", "infill", "tower", "other")
+#: Words of ``;TYPE:`` names (fgslice/PrusaSlicer and Cura) per feature, checked in order.
+_FEATURE_WORDS = (
+    (3, ("wipe", "prime", "purge")),
+    (0, ("perimeter", "wall", "gap")),
+    (1, ("solid", "skin", "bridge", "top", "bottom")),
+    (2, ("infill", "fill")),
+)
+
+
+def feature_of_roles(names) -> np.ndarray:
+    """Index into :data:`FEATURES` of each ``;TYPE:`` role name: wipe/prime/purge tower,
+    walls (perimeters, gap fill, Cura's WALL-*), skins (solid, top, bottom, bridge, Cura's SKIN),
+    sparse infill (Internal infill, Cura's FILL), anything else "other"."""
+    out = np.full(len(names), len(FEATURES) - 1, dtype=np.int64)
+    for i, name in enumerate(names):
+        low = name.lower()
+        out[i] = next((k for k, words in _FEATURE_WORDS if any(w in low for w in words)), out[i])
+    return out
 
 
 @dataclass(frozen=True)
@@ -303,6 +327,7 @@ class SimulationResult:
         materials: the design's materials (for colors).
         palette_size: N from the G-code's ``; colors = N`` comment, if any.
         model: the model used.
+        feature: ``(n,)`` index into :data:`FEATURES` (None: unknown).
     """
 
     deposited: np.ndarray
@@ -317,6 +342,7 @@ class SimulationResult:
     materials: list[Material]
     palette_size: int | None
     model: MeltModel
+    feature: np.ndarray | None = None
 
 
 def designed_at(design: Design, offset: tuple[float, float, float], points: np.ndarray, height: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -370,6 +396,7 @@ def simulate_trace(
         materials=list(design.materials),
         palette_size=palette_size,
         model=model,
+        feature=None if trace.feature is None else trace.feature[extruding],
     )
 
 
@@ -406,7 +433,8 @@ def trace_from_plans(plans, centers: np.ndarray, settings) -> SegmentTrace:
     from fgslice.toolpaths.paths import Role, bead_area
 
     non_part = {Role.SKIRT, Role.WIPE_TOWER, Role.CUSTOM}
-    rows = []   # (xy, z, (area, speed, color, part, layer, height)) per path or travel
+    feature_of = dict(zip(Role, feature_of_roles([role.value for role in Role]).tolist()))
+    rows = []   # (xy, z, (area, speed, color, part, layer, height, feature)) per path or travel
     color = None
     last = None
     for plan in plans:
@@ -417,10 +445,11 @@ def trace_from_plans(plans, centers: np.ndarray, settings) -> SegmentTrace:
             color = step.color if color is None else color
             xy = step.vertices
             if last is not None:
-                travel = (0.0, settings.travel_speed, color, False, plan.index, plan.height)
+                travel = (0.0, settings.travel_speed, color, False, plan.index, plan.height, len(FEATURES) - 1)
                 rows.append((np.array([last, xy[0]]), plan.z, travel))
             speed = _feed_mm_s(step.role, plan.index, settings)
-            extrusion = (bead_area(step.width, step.height), speed, color, step.role not in non_part, plan.index, plan.height)
+            extrusion = (bead_area(step.width, step.height), speed, color, step.role not in non_part, plan.index,
+                         plan.height, feature_of[step.role])
             rows.append((xy, plan.z, extrusion))
             last = xy[-1]
     if not rows:
@@ -429,7 +458,7 @@ def trace_from_plans(plans, centers: np.ndarray, settings) -> SegmentTrace:
     start = np.concatenate([np.column_stack([r[0][:-1], np.full(len(r[0]) - 1, r[1])]) for r in rows])
     end = np.concatenate([np.column_stack([r[0][1:], np.full(len(r[0]) - 1, r[1])]) for r in rows])
     length = np.linalg.norm(end - start, axis=1)
-    area, speed, color_index, part, layer, height = np.repeat(np.array([r[2] for r in rows], dtype=float), counts, axis=0).T
+    area, speed, color_index, part, layer, height, feature = np.repeat(np.array([r[2] for r in rows], dtype=float), counts, axis=0).T
     color_index = color_index.astype(np.int64)
     commanded = np.asarray(centers, dtype=float)[color_index]
     temperature = settings.temperature_b + commanded[:, 0] * (settings.temperature_a - settings.temperature_b)
@@ -444,6 +473,7 @@ def trace_from_plans(plans, centers: np.ndarray, settings) -> SegmentTrace:
         layer=layer.astype(np.int64),
         line=np.zeros(len(length), dtype=np.int64),
         part=part.astype(bool),
+        feature=feature.astype(np.int64),
     )
 
 
@@ -583,6 +613,7 @@ def trace_from_chunks(chunks: Iterable, settings, centers: np.ndarray, *, travel
         layer=layer,
         line=moves["line"],
         part=~non_part[moves["role"]],
+        feature=np.r_[feature_of_roles(last.roles), len(FEATURES) - 1][moves["role"]],
     )
 
 

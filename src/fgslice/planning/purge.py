@@ -15,8 +15,9 @@ With ``purge_size = model`` each change purges what the dead-volume model says i
 The tower is a rectangle sized so the layer with the most changes fits: each change owns
 ``rows_per_change`` back-and-forth rows at spacing ``w`` inside a perimeter (``model``:
 the purges of a layer follow one another along its rows, whatever their lengths). Every layer
-prints the perimeter and a sparse fill over the rows no purge used (in the state the
-layer starts in), so the tower never stands on air, from the bed up to the part's top.
+up to the last one with a change prints the perimeter and a sparse fill over the rows no
+purge used (in the state the layer starts in), so the tower never stands on air; above
+it, and in a print without any change, there is no tower.
 """
 
 from __future__ import annotations
@@ -32,7 +33,17 @@ import numpy as np
 import shapely
 
 from fgslice.errors import SettingsError, SliceError
-from fgslice.planning.plan import EXTRA, PACKED, STATE, LayerPlan, PackedSteps, SetState, Step, polyline_lengths
+from fgslice.planning.plan import (
+    EXTRA,
+    PACKED,
+    ROLE_CODE,
+    STATE,
+    LayerPlan,
+    PackedSteps,
+    SetState,
+    Step,
+    polyline_lengths,
+)
 from fgslice.planning.purge_size import PurgeSizer, purge_length
 from fgslice.settings import Settings
 from fgslice.toolpaths.paths import Path, Role, bead_area
@@ -155,35 +166,6 @@ class PurgeTower:
         arc = np.concatenate([np.zeros((len(points), 1)), np.cumsum(seg, axis=1)], axis=1)
         return points, arc
 
-    @cached_property
-    def _rows(self) -> tuple[np.ndarray, np.ndarray]:
-        """All purge rows of a layer as one back-and-forth line (``consecutive``): points
-        ``(2 * changes_per_layer * rows_per_change, 2)`` mm and the arc length at each."""
-        w, n = self.line_width, self.changes_per_layer * self.rows_per_change
-        y = self.y0 + w + w * np.arange(n)
-        x = np.tile([self.x0 + w, self.x1 - w, self.x1 - w, self.x0 + w], (n + 1) // 2)[: 2 * n]
-        points = np.column_stack([x, np.repeat(y, 2)])
-        arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(points, axis=0).T))]
-        return points, arc
-
-    def rows_used(self, length: float) -> int:
-        """Rows the first ``length`` mm of a layer's consecutive purges cover."""
-        _, arc = self._rows
-        return int(np.searchsorted(arc[1::2], length - 1e-9)) + 1 if length > 0 else 0
-
-    def purge_path_at(self, start: float, length: float, color: int, height: float) -> Path:
-        """``length`` mm of the layer's rows from arc length ``start`` (``consecutive``)."""
-        points, arc = self._rows
-        end = start + length
-        if end > arc[-1] + 1e-6:
-            raise SliceError(
-                f"a layer's purges need {end:.0f} mm of line; the tower holds {arc[-1]:.0f} mm per layer",
-                hint="a looser purge_tolerance, a smaller palette (--set colors=...), or --set purge_size=full",
-            )
-        inside = (arc > start + 1e-9) & (arc < end - 1e-9)
-        ends = np.column_stack([np.interp([start, end], arc, points[:, 0]), np.interp([start, end], arc, points[:, 1])])
-        return Path(np.vstack([ends[:1], points[inside], ends[1:]]), Role.WIPE_TOWER, color, self.line_width, height)
-
     def purge_path(self, slot: int, length: float, color: int, height: float) -> Path:
         """Back-and-forth lines of ``length`` mm over the rows of change ``slot`` on a layer
         (``0 <= slot < changes_per_layer``): the slot's line cut at that arc length."""
@@ -198,14 +180,53 @@ class PurgeTower:
             points = np.concatenate([points[: i + 1], cut]) if cut else points[: i + 1]
         return Path(points, Role.WIPE_TOWER, color, self.line_width, height)
 
+    @cached_property
+    def _serpentine(self) -> tuple[np.ndarray, np.ndarray]:
+        """One back-and-forth line over all the tower's rows, computed once per tower:
+        points ``(2 * rows, 2)`` mm (row ``r`` from point ``2 r`` to ``2 r + 1``) and the
+        arc length at each point, mm."""
+        w = self.line_width
+        xa, xb = self.x0 + w, self.x1 - w
+        x = np.tile([xa, xb, xb, xa], (self.rows + 1) // 2)[: 2 * self.rows]
+        points = np.c_[x, np.repeat(self.y0 + w + w * np.arange(self.rows), 2)]
+        return points, np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(points, axis=0).T))])
+
+    def row_start(self, row: int) -> float:
+        """Arc length along :attr:`_serpentine` where ``row`` begins, mm."""
+        return float(self._serpentine[1][2 * row]) if row < self.rows else float(self._serpentine[1][-1])
+
+    def rows_used(self, length: float) -> int:
+        """Rows the first ``length`` mm of the serpentine cover (a row begun counts)."""
+        _, arc = self._serpentine
+        return int(np.searchsorted(arc[1::2], length - 1e-9)) + 1 if length > 0 else 0
+
+    def purge_path_at(self, start: float, length: float, color: int, height: float) -> Path:
+        """``length`` mm of the serpentine from arc length ``start`` on: purges laid one
+        after another (``purge_size = model``, or purge into infill), rather than each in
+        its change's slot."""
+        points, arc = self._serpentine
+        end = start + length
+        if end > arc[-1] + 1e-6:
+            raise SliceError(
+                f"a layer's purges need {end:.0f} mm of line; the tower holds {arc[-1]:.0f} mm per layer",
+                hint="a looser purge_tolerance, a smaller palette (--set colors=...), or --set purge_size=full",
+            )
+        inside = (arc > start + 1e-9) & (arc < end - 1e-9)
+        ends = np.column_stack([np.interp([start, end], arc, points[:, 0]), np.interp([start, end], arc, points[:, 1])])
+        return Path(np.vstack([ends[:1], points[inside], ends[1:]]), Role.WIPE_TOWER, color, self.line_width, height)
+
     def base_paths(self, used_slots: int, color: int, height: float) -> list[Path]:
-        """The tower's perimeter and a sparse fill over the rows the purges left empty."""
+        """The tower's perimeter and a sparse fill over the rows the purges left empty
+        (those of the slots after the first ``used_slots``)."""
+        return self.base_paths_from(used_slots * self.rows_per_change, color, height)
+
+    def base_paths_from(self, first_free: int, color: int, height: float) -> list[Path]:
+        """The tower's perimeter and a sparse fill over the rows from ``first_free`` on."""
         w = self.line_width
         h2 = w / 2
         ring = np.array([[self.x0 + h2, self.y0 + h2], [self.x1 - h2, self.y0 + h2],
                          [self.x1 - h2, self.y1 - h2], [self.x0 + h2, self.y1 - h2]])
         paths = [Path(ring, Role.WIPE_TOWER, color, w, height, closed=True)]
-        first_free = used_slots * self.rows_per_change
         if first_free >= self.rows:
             return paths
         ya, yb = self.y0 + w + w * first_free, self.y0 + w * self.rows
@@ -266,18 +287,31 @@ def insert_purges(
     stats: PurgeStats | None = None,
     sizer: PurgeSizer | None = None,
 ) -> Iterator[LayerPlan]:
-    """Add the purge tower to each layer, serially and streaming.
+    """Add the purge tower to the layers that need it, serially and streaming.
 
     Tracks the commanded state across layers. On each layer: skirt paths stay first;
     before the layer's first :class:`SetState` the tower's perimeter and sparse fill are
     printed in the state the layer starts in; after every SetState that changes the
     state, a purge of the new color (role WIPE_TOWER) on the tower, as long as ``sizer``
-    says. With ``settings.purge`` false or no tower the plans pass through unchanged.
+    says. With
+    ``settings.purge_into_infill`` the new color's sparse infill of that layer is printed
+    first and its volume counts against the purge: the tower gets only what is left (plus
+    :func:`_unsettled_mm3`, never more than the full purge), the color's walls and skins
+    come after it.
+
+    The tower ends at the last layer with a tower purge after a change from a known state
+    (the first SetState of the print starts from an unknown state and does not count): a
+    layer without one is held back until a later layer needs the tower (then it gets the
+    tower's perimeter and fill, so the tower never stands on air) or the print ends (then
+    it is printed without tower, and a print that never changes state has none at all).
+    Only runs of layers without such a purge are held, so a print that changes state on
+    every layer streams one layer at a time. With ``settings.purge`` false or no tower the
+    plans pass through unchanged.
 
     Args:
         plans: ordered layer plans (from :func:`fgslice.planning.order.order_layer`).
         tower: from :meth:`PurgeTower.plan`.
-        settings: uses ``purge``, ``melt_volume_mm3``, ``bead_width``.
+        settings: uses ``purge``, ``melt_volume_mm3``, ``bead_width``, ``purge_into_infill``.
         palette: its ``centers`` ((N, k) fractions) size model purges.
         stats: filled with volumes as layers go by; read it once the iterator is exhausted.
         sizer: purge lengths; default :meth:`PurgeSizer.of` ``settings`` and ``palette``.
@@ -295,9 +329,69 @@ def insert_purges(
     sizer = sizer or PurgeSizer.of(settings, palette.centers)
     state: int | None = None
     made: dict[tuple, tuple[Path, float]] = {}  # tower paths and volumes by what makes them: layers repeat them
+    since = 0.0
+    held: list[_LayerPurges] = []
     for plan in plans:
         if plan.index >= tower.n_layers:
             raise ValueError(f"layer {plan.index} is above the {tower.n_layers} layers the tower was planned for")
+        layer = _LayerPurges.of(plan, state, since, tower, settings, sizer)
+        if not tower.consecutive and layer.changes > tower.changes_per_layer:
+            raise ValueError(
+                f"layer {plan.index} has {layer.changes} state changes; the tower was sized for {tower.changes_per_layer}"
+            )
+        state, since = layer.end_state, layer.since
+        held.append(layer)
+        if layer.needs_tower:
+            for waiting in held:
+                yield waiting.with_tower(tower, made, stats)
+            held.clear()
+    for waiting in held:
+        yield waiting.without_tower(stats)
+
+
+@dataclass(frozen=True)
+class _LayerPurges:
+    """A layer's plan with what its state changes purge (see :func:`insert_purges`).
+
+    Attributes:
+        plan: the layer's plan.
+        start_state: the state the layer starts in (None: unknown, before the first change).
+        end_state: the state it ends in.
+        since: volume extruded since its last change, tower purge included and tower
+            base left out (which only lengthens the run), mm^3 (purge into infill only;
+            0 otherwise).
+        changes: its SetStates that change the state.
+        marks, colors: index and color of each of its SetStates.
+        groups: per SetState, the steps that follow it up to the next one, in printing
+            order, as ``(before, after)``: index arrays of the steps printed before the
+            tower purge and after it.
+        lengths: per SetState, the purge left for the tower, mm (0 where the state does
+            not change or the infill took it all).
+        needs_tower: a tower purge follows a change from a known state.
+        packed_rows: the tower purges are laid one after another from the tower's first
+            row, each from the start of a row (purge into infill: they are shorter than a
+            change's slot, and the sparse fill takes every row after the last one, so no row
+            stays empty), rather than each in its change's slot; with a ``consecutive``
+            tower (``purge_size = model``) each goes on where the one before ended.
+    """
+
+    plan: LayerPlan
+    start_state: int | None
+    end_state: int | None
+    since: float
+    changes: int
+    marks: list[int]
+    colors: list[int]
+    groups: list[tuple[np.ndarray, np.ndarray]]
+    lengths: list[float]
+    needs_tower: bool
+    packed_rows: bool = False
+
+    @classmethod
+    def of(cls, plan: LayerPlan, state: int | None, since: float, tower: PurgeTower, settings: Settings,
+           sizer: PurgeSizer) -> "_LayerPurges":
+        """What ``plan``'s changes purge (as long as ``sizer`` says), starting in ``state``
+        with ``since`` mm^3 extruded since the last change (purge into infill only)."""
         packed = plan.packed
         if packed is not None:
             marks = np.flatnonzero(packed.kind == STATE).tolist()
@@ -307,110 +401,106 @@ def insert_purges(
             marks = [i for i, step in enumerate(plan.steps) if isinstance(step, SetState)]
             colors = [plan.steps[i].color for i in marks]
             n_steps = len(plan.steps)
-        changes = _count_changes(colors, state)
-        lengths = _purge_lengths(colors, state, sizer, plan)
-        used_slots = changes
-        if tower.consecutive:
-            used_slots = math.ceil(tower.rows_used(sum(lengths)) / tower.rows_per_change)
-        elif changes > tower.changes_per_layer:
-            raise ValueError(
-                f"layer {plan.index} has {changes} state changes; the tower was sized for {tower.changes_per_layer}"
-            )
+        start, changes = state, _count_changes(colors, state)
+        ends = marks + [n_steps]
+        if settings.purge_into_infill:
+            roles, volumes = _step_roles_and_volumes(plan, np.arange(n_steps))
+            since += float(volumes[: ends[0]].sum())
+        area = bead_area(tower.line_width, plan.height)
+        groups, lengths, needs = [], [], False
+        for k, (i, color) in enumerate(zip(marks, colors)):
+            steps = np.arange(i + 1, ends[k + 1])
+            if color == state:
+                groups.append((steps[:0], steps))
+                lengths.append(0.0)
+                if settings.purge_into_infill:
+                    since += float(volumes[steps].sum())
+                continue
+            length = sizer.length(state, color, plan.height, plan.index)
+            if settings.purge_into_infill:
+                infill = roles[steps] == ROLE_CODE[Role.INTERNAL_INFILL]
+                poured = float(volumes[steps][infill].sum())
+                left = min(max(0.0, length * area + _unsettled_mm3(since, settings) - poured) / area, length)
+                groups.append((steps[infill], steps[~infill]))
+                lengths.append(left)
+                since = left * area + float(volumes[steps].sum())
+            else:
+                groups.append((steps[:0], steps))
+                lengths.append(length)
+            needs |= state is not None and lengths[-1] > 0
+            state = color
+        return cls(plan, start, state, since, changes, marks, colors, groups, lengths, needs,
+                   settings.purge_into_infill or tower.consecutive)
+
+    def with_tower(self, tower: PurgeTower, made: dict, stats: PurgeStats) -> LayerPlan:
+        """The plan with the tower's perimeter and fill and the purges; ``made`` caches
+        tower paths by what makes them, ``stats`` is added to."""
+        plan, state = self.plan, self.start_state
         if len(made) > MADE_PATHS:
             made.clear()
-        base_key = ("base", used_slots, CURRENT_STATE if state is None else state, plan.height)
-        if base_key not in made:
-            paths = tower.base_paths(*base_key[1:])
-            made[base_key] = (paths, float(_volumes(paths).sum()))
-        base, base_volume = made[base_key]
-        # the new order: ranges (a, b) of the plan's steps and lists of tower paths
-        ends = marks + [n_steps]
-        pieces: list[tuple[int, int] | list[Path]] = [(0, ends[0])]
-        if not marks:
-            pieces.append(base)
-        purges: list[Path] = []
-        purge_volumes: list[float] = []
-        laid = 0.0  # mm of the layer's rows the consecutive purges have used
-        for k, (i, color, length) in enumerate(zip(marks, colors, lengths)):
-            if k == 0:
-                pieces.append(base)
-            pieces.append((i, i + 1))
-            if color != state and length > 0:
-                key = (laid if tower.consecutive else len(purges), length, color, plan.height)
-                laid += length
+        purges: list[list[Path]] = []
+        purge_volume, row, laid = 0.0, 0, 0.0  # first free row; mm of serpentine the packed purges used
+        for color, length in zip(self.colors, self.lengths):
+            if length <= 0:
+                purges.append([])
+                continue
+            if self.packed_rows:
+                start = laid if tower.consecutive else tower.row_start(row)
+                key = ("at", start, length, color, plan.height)
                 if key not in made:
-                    path = tower.purge_path_at(*key) if tower.consecutive else tower.purge_path(*key)
+                    path = tower.purge_path_at(*key[1:])
                     made[key] = (path, float(_volumes([path])[0]))
                 path, volume = made[key]
-                purges.append(path)
-                purge_volumes.append(volume)
-                pieces.append([path])
-            state = color
-            pieces.append((i + 1, ends[k + 1]))
-        purge_volume = float(np.sum(purge_volumes))
+                laid = start + length
+                row = tower.rows_used(laid)
+            else:
+                key = (sum(map(len, purges)), length, color, plan.height)
+                if key not in made:
+                    path = tower.purge_path(*key)
+                    made[key] = (path, float(_volumes([path])[0]))
+                path, volume = made[key]
+            purges.append([path])
+            purge_volume += volume
+        if not self.packed_rows:
+            row = sum(map(len, purges)) * tower.rows_per_change
+        base_key = ("base", row, CURRENT_STATE if state is None else state, plan.height)
+        if base_key not in made:
+            paths = tower.base_paths_from(*base_key[1:])
+            made[base_key] = (paths, float(_volumes(paths).sum()))
+        base, base_volume = made[base_key]
         stats.purge_mm3 += purge_volume
-        stats.changes += len(purges)
+        stats.changes += self.changes
         stats.tower_base_mm3 += base_volume
         stats.extruded_mm3 += purge_volume + base_volume + _plan_volume(plan)
+        return self._plan_with(base, purges)
+
+    def without_tower(self, stats: PurgeStats) -> LayerPlan:
+        """The plan in the purge order but without the tower (``stats`` is added to)."""
+        stats.extruded_mm3 += _plan_volume(self.plan)
+        if not any(len(before) for before, _ in self.groups):
+            return self.plan
+        return self._plan_with([], [[] for _ in self.marks])
+
+    def _plan_with(self, base: list[Path], purges: list[list[Path]]) -> LayerPlan:
+        """The plan's steps with ``base`` before its first SetState (after the others
+        when it has none) and each change's purge between its two step groups."""
+        plan = self.plan
+        first = self.marks[0] if self.marks else (len(plan.packed.kind) if plan.packed is not None else len(plan.steps))
+        pieces: list[tuple[int, int] | np.ndarray | list[Path]] = [(0, first), base]
+        for i, (before, after), purge in zip(self.marks, self.groups, purges):
+            pieces += [(i, i + 1), before, purge, after]
+        packed = plan.packed
         if packed is not None:
-            yield LayerPlan.from_packed(plan.index, plan.z, plan.height, _packed_with(packed, pieces))
-        else:
-            steps: list[Step] = []
-            for piece in pieces:
-                steps.extend(plan.steps[piece[0] : piece[1]] if isinstance(piece, tuple) else piece)
-            yield LayerPlan(index=plan.index, z=plan.z, height=plan.height, steps=steps, prepared=plan.prepared)
-
-
-def _packed_with(packed: PackedSteps, pieces: list[tuple[int, int] | list[Path]]) -> PackedSteps:
-    """``packed`` with its steps reordered as ``pieces``: ranges ``(a, b)`` of its steps and
-    lists of new paths (added to its extras)."""
-    extras = list(packed.extras)
-    kinds, refs = [], []
-    for piece in pieces:
-        if isinstance(piece, tuple):
-            kinds.append(packed.kind[piece[0] : piece[1]])
-            refs.append(packed.ref[piece[0] : piece[1]])
-        else:
-            kinds.append(np.full(len(piece), EXTRA, dtype=np.int8))
-            refs.append(np.arange(len(extras), len(extras) + len(piece), dtype=np.int32))
-            extras.extend(piece)
-    return packed.with_steps(np.concatenate(kinds), np.concatenate(refs), extras)
-
-
-def _plan_volume(plan: LayerPlan) -> float:
-    """Everything ``plan`` extrudes by the capsule model, mm^3 (from the packed lengths when
-    the plan is packed)."""
-    packed = plan.packed
-    if packed is None:
-        return float(_volumes(plan.paths).sum())
-    ref = packed.ref[packed.kind == PACKED]
-    area = bead_area(packed.widths[ref], packed.heights[ref])
-    return float(np.dot(packed.lengths[ref], area)) + float(_volumes(packed.extras).sum())
-
-
-def _purge_lengths(colors: list[int], state: int | None, sizer: PurgeSizer, plan: LayerPlan) -> list[float]:
-    """Purge length after each of a layer's SetStates (their ``colors`` in order), starting
-    from ``state``: 0 where the state does not change, mm."""
-    lengths = []
-    for color in colors:
-        lengths.append(0.0 if color == state else sizer.length(state, color, plan.height, plan.index))
-        state = color
-    return lengths
-
-
-def _count_changes(colors: list[int], state: int | None) -> int:
-    """How many of the layer's SetStates (their ``colors`` in order) change the state,
-    starting from ``state``."""
-    return sum(a != b for a, b in zip([state] + colors[:-1], colors))
-
-
-def _volumes(paths: list[Path]) -> np.ndarray:
-    """Extruded volume of each path by the capsule model, mm^3, from one attribute pass."""
-    if not paths:
-        return np.zeros(0)
-    arrays, closed, widths, heights = zip(*map(attrgetter("points", "closed", "width", "height"), paths))
-    lengths = polyline_lengths(arrays, np.array(closed, dtype=bool))
-    return lengths * bead_area(np.array(widths), np.array(heights))
+            return LayerPlan.from_packed(plan.index, plan.z, plan.height, _packed_with(packed, pieces))
+        steps: list[Step] = []
+        for piece in pieces:
+            if isinstance(piece, tuple):
+                steps.extend(plan.steps[piece[0] : piece[1]])
+            elif isinstance(piece, np.ndarray):
+                steps.extend(plan.steps[j] for j in piece.tolist())
+            else:
+                steps.extend(piece)
+        return LayerPlan(index=plan.index, z=plan.z, height=plan.height, steps=steps, prepared=plan.prepared)
 
 
 def _fitting_alternatives(part_footprint: shapely.Geometry, changes: int, n_layers: int, sizer: PurgeSizer) -> str:
@@ -458,6 +548,136 @@ def _fitting_alternatives(part_footprint: shapely.Geometry, changes: int, n_laye
         rule = "a tenth of its bin" if settings.purge_tolerance == "auto" else f"{tol:.3g}"
         found.append(f"--set colors={sizes[low]} fits (tolerance {rule})")
     return " or ".join(found) if found else "no purge_tolerance or smaller palette fits"
+
+
+def _tower_size(length: float, changes: int, w: float, aspect: float) -> tuple[float, float, int, int]:
+    """(width, depth, rows per change, rows) of a tower with ``width / depth >= aspect``.
+
+    Rows run along X at spacing ``w`` inside a one-bead perimeter; a change owns enough
+    rows for ``length`` mm of back-and-forth line (row length plus ``w`` per turn).
+    """
+    run = max(math.sqrt(changes * length * w * aspect) - 2 * w, MIN_TOWER_SIDE_MM - 2 * w)
+    while True:
+        per_change = math.ceil((length + w) / (run + w))
+        rows = max(changes * per_change, math.ceil(MIN_TOWER_SIDE_MM / w) - 1)
+        width, depth = run + 2 * w, (rows + 1) * w
+        if width >= aspect * depth:
+            return width, depth, per_change, rows
+        run += w
+
+
+def _candidate_centers(bounds, width: float, depth: float, bed: tuple[float, float]) -> np.ndarray:
+    """Tower centers to try: beside the keep-out box (right, left, behind, front), then a
+    grid over the bed ordered by distance to the part."""
+    minx, miny, maxx, maxy = bounds
+    cx, cy = (minx + maxx) / 2, (miny + maxy) / 2
+    gap = 1e-3  # touching the keep-out counts as overlapping
+    sides = [(maxx + width / 2 + gap, cy), (minx - width / 2 - gap, cy),
+             (cx, maxy + depth / 2 + gap), (cx, miny - depth / 2 - gap)]
+    step = max(2.0, min(width, depth) / 4)
+    gx, gy = np.meshgrid(np.arange(width / 2, bed[0] - width / 2 + 1e-9, step),
+                         np.arange(depth / 2, bed[1] - depth / 2 + 1e-9, step))
+    grid = np.c_[gx.ravel(), gy.ravel()]
+    grid = grid[np.argsort(np.hypot(grid[:, 0] - cx, grid[:, 1] - cy), kind="stable")]
+    return np.vstack([np.array(sides), grid])
+
+
+def _fits(centers: np.ndarray, width: float, depth: float, keepout: shapely.Geometry, bed) -> np.ndarray:
+    """Which candidate towers lie on the bed and clear of ``keepout``."""
+    x0, y0 = centers[:, 0] - width / 2, centers[:, 1] - depth / 2
+    x1, y1 = x0 + width, y0 + depth
+    on_bed = (x0 >= 0) & (y0 >= 0) & (x1 <= bed[0]) & (y1 <= bed[1])
+    ok = on_bed.copy()
+    ok[on_bed] = ~shapely.intersects(shapely.box(x0[on_bed], y0[on_bed], x1[on_bed], y1[on_bed]), keepout)
+    return ok
+
+
+def _unsettled_mm3(since: float, settings: Settings) -> float:
+    """Extra purge (mm^3) after a change made ``since`` mm^3 after the previous one, when
+    the sparse infill takes the purge.
+
+    In the melt-chamber model (plug flow ``V_plug = (1 - s) V_melt``, then a well-mixed
+    ``V_mix = s V_melt``, ``s`` = ``mixing_share``) the share of a change still unsettled
+    after ``v`` mm^3 is ``rho = exp(-(v - V_plug) / V_mix)`` (1 before ``V_plug``). The
+    infill taken in front of the tower shortens the previous color's run, so the old
+    state still holds ``rho`` of the color before it; after ``V_melt + V_mix ln(1 + rho)``
+    the first wall sees no more of older colors than after a full purge from a settled
+    state (both changes in the same direction, the worst case). 0 without mixing.
+    """
+    v_mix = settings.mixing_share * settings.melt_volume_mm3
+    if v_mix <= 0:
+        return 0.0
+    v_plug = settings.melt_volume_mm3 - v_mix
+    rho = math.exp(-max(since - v_plug, 0.0) / v_mix)
+    return v_mix * math.log1p(rho)
+
+
+def _step_roles_and_volumes(plan: LayerPlan, steps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Role code (:data:`~fgslice.planning.plan.ROLE_CODE`, -1 for a SetState) and extruded
+    volume (mm^3) of the plan's ``steps``."""
+    packed = plan.packed
+    roles = np.full(len(steps), -1, dtype=np.int64)
+    volumes = np.zeros(len(steps))
+    if packed is not None:
+        kind, ref = packed.kind[steps], packed.ref[steps]
+        own = kind == PACKED
+        rows = ref[own]
+        roles[own] = packed.roles[rows]
+        volumes[own] = packed.lengths[rows] * bead_area(packed.widths[rows], packed.heights[rows])
+        extra = np.flatnonzero(kind == EXTRA)
+        paths = [packed.extras[r] for r in ref[extra].tolist()]
+    else:
+        extra = np.array([j for j, s in enumerate(steps.tolist()) if isinstance(plan.steps[s], Path)], dtype=np.int64)
+        paths = [plan.steps[s] for s in steps[extra].tolist()]
+    if paths:
+        roles[extra] = [ROLE_CODE[p.role] for p in paths]
+        volumes[extra] = _volumes(paths)
+    return roles, volumes
+
+
+def _packed_with(packed: PackedSteps, pieces: list[tuple[int, int] | np.ndarray | list[Path]]) -> PackedSteps:
+    """``packed`` with its steps reordered as ``pieces``: ranges ``(a, b)`` and index
+    arrays of its steps, and lists of new paths (added to its extras)."""
+    extras = list(packed.extras)
+    kinds, refs = [], []
+    for piece in pieces:
+        if isinstance(piece, tuple):
+            kinds.append(packed.kind[piece[0] : piece[1]])
+            refs.append(packed.ref[piece[0] : piece[1]])
+        elif isinstance(piece, np.ndarray):
+            kinds.append(packed.kind[piece])
+            refs.append(packed.ref[piece])
+        else:
+            kinds.append(np.full(len(piece), EXTRA, dtype=np.int8))
+            refs.append(np.arange(len(extras), len(extras) + len(piece), dtype=np.int32))
+            extras.extend(piece)
+    return packed.with_steps(np.concatenate(kinds), np.concatenate(refs), extras)
+
+
+def _plan_volume(plan: LayerPlan) -> float:
+    """Everything ``plan`` extrudes by the capsule model, mm^3 (from the packed lengths when
+    the plan is packed)."""
+    packed = plan.packed
+    if packed is None:
+        return float(_volumes(plan.paths).sum())
+    ref = packed.ref[packed.kind == PACKED]
+    area = bead_area(packed.widths[ref], packed.heights[ref])
+    return float(np.dot(packed.lengths[ref], area)) + float(_volumes(packed.extras).sum())
+
+
+def _count_changes(colors: list[int], state: int | None) -> int:
+    """How many of the layer's SetStates (their ``colors`` in order) change the state,
+    starting from ``state``."""
+    return sum(a != b for a, b in zip([state] + colors[:-1], colors))
+
+
+def _volumes(paths: list[Path]) -> np.ndarray:
+    """Extruded volume of each path by the capsule model, mm^3, from one attribute pass."""
+    if not paths:
+        return np.zeros(0)
+    arrays, closed, widths, heights = zip(*map(attrgetter("points", "closed", "width", "height"), paths))
+    lengths = polyline_lengths(arrays, np.array(closed, dtype=bool))
+    return lengths * bead_area(np.array(widths), np.array(heights))
 
 
 def _tower_size(length: float, changes: int, w: float, aspect: float) -> tuple[float, float, int, int]:

@@ -26,6 +26,10 @@ from fgslice.toolpaths.paths import Path, Role
 _EMPTY = shapely.Polygon()
 """The empty area (geometries are immutable; shapely parses WKT to make a new one)."""
 
+NARROW_MIN_AREA = 1e-3
+"""Smallest narrow sparse piece made solid by :func:`anchor`, mm^2 (smaller ones are the
+floating-point residue of the opening)."""
+
 
 def covered(region, neighbours: Sequence, count: int):
     """Part of ``region`` covered by all of the ``count`` nearest ``neighbours``.
@@ -88,7 +92,42 @@ def split_inner(inner, outline, below: Sequence, above: Sequence, settings: Sett
     if settings.infill_density >= 100.0:
         return InnerAreas(top, under_above, _EMPTY)
     sparse = covered(under_above, below, settings.bottom_layers)
-    return InnerAreas(top, _minus(under_above, sparse), sparse)
+    areas = InnerAreas(top, _minus(under_above, sparse), sparse)
+    return anchor(areas, under_above, settings.skin_margin, settings.sparse_min_width)
+
+
+def anchor(areas: InnerAreas, under_above, margin: float, min_width: float) -> InnerAreas:
+    """Anchored skins: the sparse area within ``margin`` mm of the top or solid skin, and
+    every part of the sparse area narrower than ``min_width`` mm, become solid skin.
+
+    As PrusaSlicer's external infill margin and Cura's skin expand distance: a skin that
+    ends exactly where the layers above or below stop would rest on (or carry) sparse
+    lines only at its edge, and the strip left between it and the walls would be too
+    narrow for sparse lines to reach. Narrow means removed by an opening of the sparse area
+    by ``min_width / 2`` (mitre joins, so a rectangle is its own opening); pieces smaller
+    than ``NARROW_MIN_AREA`` are floating-point residue and stay sparse. ``under_above``
+    is the solid and sparse areas together (the inner area less the top skin): the new
+    solid is it less the new sparse area. Areas that nothing changes are returned as they
+    are (the same geometry objects).
+    """
+    top, solid, sparse = areas.top, areas.solid, areas.sparse
+    if sparse.is_empty:
+        return areas
+    changed = False
+    if margin > 0 and not (top.is_empty and solid.is_empty):
+        skins = shapely.union(top, solid) if not (top.is_empty or solid.is_empty) else (solid if top.is_empty else top)
+        near = shapely.buffer(skins, margin)
+        if shapely.intersects(near, sparse):
+            sparse, changed = shapely.difference(sparse, near), True
+    if min_width > 0 and not sparse.is_empty:
+        opened = shapely.buffer(shapely.buffer(sparse, -min_width / 2, join_style="mitre"), min_width / 2, join_style="mitre")
+        parts = shapely.get_parts(shapely.difference(sparse, opened))
+        parts = parts[shapely.area(parts) >= NARROW_MIN_AREA]
+        if len(parts):
+            sparse, changed = shapely.difference(sparse, shapely.multipolygons(parts)), True  # parts of one overlay: disjoint
+    if not changed:
+        return areas
+    return InnerAreas(top, shapely.difference(under_above, sparse), sparse)
 
 
 def fill_inner(areas: InnerAreas, layer_index: int, settings: Settings, sparse=None) -> list[Path]:

@@ -25,7 +25,7 @@ from fgslice.settings import Settings
 from fgslice.slicing.layers import LayerRegions
 from fgslice.toolpaths.graded_infill import density_regions
 from fgslice.toolpaths.infill import uncovered_area
-from fgslice.toolpaths.paths import LayerPaths, Path
+from fgslice.toolpaths.paths import LayerPaths, Path, Role
 from fgslice.toolpaths.simplify import simplify_paths
 from fgslice.toolpaths.skins import fill_inner, split_inner
 from fgslice.toolpaths.walls import make_walls
@@ -83,7 +83,9 @@ def layer_paths(
     out = LayerPaths(regions.index, regions.z, regions.height)
     out.paths = cut.paths
     out.uncovered_mm2 = uncovered_area(regions.outline, w, eroded=walls.eroded)
-    return out, short_pieces(cut.bounded_lengths, palette.size, settings.min_segment_mm, regions.index)
+    kinds = _piece_kinds([raw[i].role for i in cut.bounded_paths.tolist()])
+    return out, short_pieces(cut.bounded_lengths, palette.size, settings.min_segment_mm, regions.index, kinds,
+                             cut.bounded_crossing)
 
 
 @dataclass(frozen=True)
@@ -94,10 +96,21 @@ class Cut:
         paths: the colored pieces.
         bounded_lengths: lengths (mm) of the pieces cut at both ends (these shrink
             roughly as 1 / palette size; pieces ending at a path's end do not).
+        bounded_paths: index of the input path of each of them.
+        bounded_crossing: whether each of them crosses a color band (the colors before
+            and after it differ) rather than grazing a boundary (the same color on both
+            sides).
     """
 
     paths: list[Path]
     bounded_lengths: np.ndarray
+    bounded_paths: np.ndarray
+    bounded_crossing: np.ndarray
+
+
+def _no_runs() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The bounded-run arrays of a :class:`Cut` without any cut."""
+    return np.empty(0), np.empty(0, dtype=np.int64), np.empty(0, dtype=bool)
 
 
 def _complex(xy: np.ndarray) -> np.ndarray:
@@ -320,9 +333,9 @@ def cut_by_color(paths: list[Path], field, palette, z: float, layer_index: int, 
     """Cut ``paths`` into pieces of one color each (see the module docstring), listed in
     the order of ``paths`` and along each path."""
     if not paths:
-        return Cut([], np.empty(0))
+        return Cut([], *_no_runs())
     if palette.size == 1:
-        return Cut([p.with_color(0) for p in paths], np.empty(0))
+        return Cut([p.with_color(0) for p in paths], *_no_runs())
     w = settings.bead_width
     beta = settings.zipper
     lines = _Lines.of(paths)
@@ -378,7 +391,7 @@ def cut_by_color(paths: list[Path], field, palette, z: float, layer_index: int, 
     pieces = _pieces(paths, lines, cpid, carc, label[nxt], label[first_sub], w)
     run_first = np.sort(np.concatenate((first_sub, color_change)))
     runs = dense.locate(run_first)
-    return Cut(pieces, _color_runs(runs.pid, color[run_first], runs.arc_start, lines.total, lines.closed))
+    return Cut(pieces, *_color_runs(runs.pid, color[run_first], runs.arc_start, lines.total, lines.closed))
 
 
 def _pieces(paths, lines: _Lines, cpid, carc, clab, first_label, min_length: float) -> list[Path]:
@@ -506,8 +519,10 @@ def _points_at(vertex, g_arc, g, after, first, last) -> np.ndarray:
     return vertex[idx] + (vertex[idx + 1] - vertex[idx]) * t
 
 
-def _color_runs(pid, color, arc, total, closed) -> np.ndarray:
-    """Lengths of field-color runs bounded by color changes at both ends, mm.
+def _color_runs(pid, color, arc, total, closed) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Lengths of field-color runs bounded by color changes at both ends, mm, the path of
+    each, and whether the runs before and after it have different colors (it crosses a
+    band) rather than the same (it grazes a boundary).
 
     Runs are given by where they start (path ``pid``, ``color``, arc position ``arc``,
     in path order); computed on the sub-segments (accurate to a sub-segment), with
@@ -528,7 +543,9 @@ def _color_runs(pid, color, arc, total, closed) -> np.ndarray:
     length_out[at_first] += run_len[last_run[at_first]]
     keep = ~single & ~(joined & (idx == last_run))
     keep &= c | ((idx != first_run) & (idx != last_run))
-    return length_out[keep]
+    before = np.where(idx == first_run, np.where(joined, last_run - 1, last_run), idx - 1)
+    after = np.where(idx == last_run, first_run, idx + 1)
+    return length_out[keep], pid[keep], (color[before] != color[after])[keep]
 
 
 def _merge_short(starts: list, ends: list, labels: list, min_length: float, closed: bool, total: float):
@@ -632,6 +649,16 @@ def _join_equal(starts: list, ends: list, labels: list, closed: bool, total: flo
     return s, e, lab
 
 
+PIECE_KINDS = ("walls", "skins", "sparse infill")
+"""What a color piece belongs to, for the short-piece warning (:func:`_piece_kinds`)."""
+
+
+def _piece_kinds(roles: list[Role]) -> np.ndarray:
+    """Index into :data:`PIECE_KINDS` of each role: perimeters, solid fills, sparse infill."""
+    kind = {Role.EXTERNAL_PERIMETER: 0, Role.PERIMETER: 0, Role.INTERNAL_INFILL: 2}
+    return np.array([kind.get(r, 1) for r in roles], dtype=np.int64)
+
+
 @dataclass(frozen=True)
 class ShortPieces:
     """Color pieces of one layer shorter than ``min_segment_mm``.
@@ -641,27 +668,46 @@ class ShortPieces:
         short: how many pieces cut at both ends are shorter than ``min_segment_mm``.
         total: how many pieces are cut at both ends.
         shortest_mm: the shortest of them, mm.
-        suggestion: the largest palette size expected to keep them long enough.
+        suggestion: the largest palette size expected to keep the short pieces that
+            cross a color band long enough (None when no short piece crosses one).
+        by_kind: how many of the short ones are in walls, skins and sparse infill
+            (:data:`PIECE_KINDS`).
+        grazing: how many of the short ones only graze a color boundary.
     """
 
     layer: int
     short: int
     total: int
     shortest_mm: float
-    suggestion: int
+    suggestion: int | None
+    by_kind: tuple[int, int, int] = (0, 0, 0)
+    grazing: int = 0
 
 
-def short_pieces(bounded: np.ndarray, palette_size: int, min_segment_mm: float, layer_index: int) -> ShortPieces | None:
+def short_pieces(bounded: np.ndarray, palette_size: int, min_segment_mm: float, layer_index: int,
+                 kinds: np.ndarray | None = None, crossing: np.ndarray | None = None) -> ShortPieces | None:
     """The layer's short-piece record, or None when every piece is long enough.
 
-    Pieces cut at both ends shrink roughly as ``1 / N`` with the palette size ``N``, so
-    a palette of ``N * L_q / min_segment_mm`` colors keeps all but the shortest
-    :data:`WARN_QUANTILE` of them long enough (``L_q`` that quantile of their lengths).
+    A piece that crosses a color band (``crossing``: other colors before and after it) is
+    as long as the band is wide along the path, and bands widen as ``1 / N`` with the
+    palette size ``N``: a palette of ``N * L_q / min_segment_mm`` colors keeps all but the
+    shortest :data:`WARN_QUANTILE` of those long enough (``L_q`` that quantile of their
+    lengths). A piece that grazes a boundary (the same color on both sides: an infill
+    line turning next to it, a wall running along it) does not depend on ``N``.
+    ``kinds`` (:data:`PIECE_KINDS` index of each piece) gives ``by_kind``; without
+    ``crossing`` every piece counts as crossing.
     """
     if len(bounded) == 0 or min_segment_mm <= 0 or bounded.min() >= min_segment_mm:
         return None
-    suggestion = max(1, int(palette_size * _quantile(bounded, WARN_QUANTILE) / min_segment_mm))
-    return ShortPieces(layer_index, int(np.sum(bounded < min_segment_mm)), len(bounded), float(bounded.min()), suggestion)
+    short = bounded < min_segment_mm
+    crossing = np.ones(len(bounded), dtype=bool) if crossing is None else crossing
+    across = bounded[crossing]
+    suggestion = None
+    if np.any(short & crossing):
+        suggestion = max(1, int(palette_size * _quantile(across, WARN_QUANTILE) / min_segment_mm))
+    by_kind = (0, 0, 0) if kinds is None else tuple(np.bincount(kinds[short], minlength=len(PIECE_KINDS)).tolist())
+    return ShortPieces(layer_index, int(np.sum(short)), len(bounded), float(bounded.min()), suggestion, by_kind,
+                       int(np.sum(short & ~crossing)))
 
 
 def _quantile(values: np.ndarray, q: float) -> float:
@@ -676,16 +722,30 @@ def _quantile(values: np.ndarray, q: float) -> float:
     return float(low + (high - low) * (position - below))
 
 
-def summarize_short_pieces(records: list[ShortPieces], layers: int, min_segment_mm: float) -> list[str]:
-    """One warning for the whole print from the layers' short-piece records (none if empty)."""
+def summarize_short_pieces(records: list[ShortPieces], layers: int, min_segment_mm: float, palette_size: int) -> list[str]:
+    """One warning for the whole print from the layers' short-piece records (none if empty).
+
+    It says where the short pieces are (walls, skins, sparse infill) and what would help:
+    for those crossing color bands narrower than ``min_segment_mm``, a palette of at most
+    the suggested size when that is smaller than ``palette_size``; those only grazing a
+    boundary are named as such, since no palette size lengthens them.
+    """
     if not records:
         return []
     short = sum(r.short for r in records)
     total = sum(r.total for r in records)
     worst = min(records, key=lambda r: r.shortest_mm)
-    suggestion = min(r.suggestion for r in records)
-    return [
-        f"{short} of {total} color pieces on {len(records)} of {layers} layers are shorter than "
-        f"min_segment_mm = {min_segment_mm:g} mm (shortest {worst.shortest_mm:.2f} mm, layer {worst.layer}); "
-        f"a palette of at most {suggestion} colors would keep them long enough"
-    ]
+    grazing = sum(r.grazing for r in records)
+    kinds = np.sum([r.by_kind for r in records], axis=0).tolist()
+    where = ", ".join(f"{n} in {kind}" for n, kind in sorted(zip(kinds, PIECE_KINDS), reverse=True) if n)
+    parts = [f"{short} of {total} color pieces on {len(records)} of {layers} layers are shorter than "
+             f"min_segment_mm = {min_segment_mm:g} mm (shortest {worst.shortest_mm:.2f} mm, layer {worst.layer})"
+             + (f": {where}" if where else "")]
+    suggestions = [r.suggestion for r in records if r.suggestion is not None]
+    if suggestions and min(suggestions) < palette_size:
+        parts.append(f"{short - grazing} cross color bands narrower than that: a palette of at most "
+                     f"{min(suggestions)} colors would keep them long enough")
+    if grazing:
+        parts.append(f"{grazing} only graze a color boundary (an infill line turning or a wall running next to it), "
+                     "which no palette size lengthens")
+    return ["; ".join(parts)]
