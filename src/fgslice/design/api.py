@@ -18,6 +18,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from fgslice.design import nodes
+from fgslice.design.blend import Blend
 from fgslice.design.language import load_design, parse_design, resolve_mesh_path
 from fgslice.design.materials import MaterialLibrary, builtin_library, load_library
 from fgslice.errors import DesignError, MeshError
@@ -37,6 +38,7 @@ __all__ = [
     "rotate",
     "scale",
     "fgrade",
+    "blend",
     "design",
     "load_design",
     "parse_design",
@@ -180,6 +182,15 @@ def fgrade(fields: Sequence[Field], materials: Sequence[str], *children: nodes.N
     if mode not in ("prob", "thresh"):
         raise DesignError(f'fgrade mode must be "prob" or "thresh", got {mode!r}')
     return nodes.Fgrade([nodes.Field(f) for f in fields], materials, _children("fgrade", children), mode)
+
+
+def blend(size, *children: nodes.Node) -> nodes.Node:
+    """Average the children's fractions over a box of ``size = (sx, sy, sz)`` mm (or one
+    number for all axes) centred at each point; the geometry is the children's."""
+    vector = (float(size),) * 3 if isinstance(size, (int, float)) else _vector("blend", "size", size)
+    if any(v < 0 for v in vector) or not any(v > 0 for v in vector):
+        raise DesignError("blend: sizes must be >= 0 with at least one positive")
+    return Blend(vector, _children("blend", children))
 
 
 def design(
