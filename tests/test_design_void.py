@@ -109,3 +109,9 @@ def test_void_in_a_materials_file_is_still_empty_space(tmp_path):
 def test_a_design_of_void_only_is_refused():
     with pytest.raises(DesignError, match="void only"):
         parse_design('sphere(5, "void");')
+
+
+def test_a_void_hole_in_a_part_without_material_names_keeps_the_default_material():
+    design = parse_design('union() { sphere(3, "void"); cube(10); }')
+    assert [m.name for m in design.materials] == ["default"]
+    assert design.section(0.0).area == pytest.approx(100 - np.pi * 9, rel=2e-3)

@@ -162,9 +162,10 @@ def scale(factors, *children: nodes.Node) -> nodes.Node:
 
 
 def fgrade(fields: Sequence[Field], materials: Sequence[str], *children: nodes.Node, mode: str = "prob") -> nodes.Node:
-    """Grade the children's materials: ``fields[i]`` is the raw fraction of ``materials[i]``.
+    """Grade the children: ``fields[i]`` is the raw fraction of ``materials[i]``.
 
-    Fields are evaluated in this node's frame. ``mode``: "prob" (continuous fractions) or
+    The grade overrides every material named below it (the children give the geometry
+    only). Fields are evaluated in this node's frame. ``mode``: "prob" (continuous fractions) or
     "thresh" (the material with the largest fraction takes the point).
     """
     fields, materials = list(fields), list(materials)

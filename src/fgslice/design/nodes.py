@@ -824,6 +824,7 @@ class NodeDesign(Design):
         materials: list[Material] = []
         hidden: dict[str, tuple[str, Where]] = {}
         self.has_void = False
+        unnamed = False
         self.node_count = 0
         self.meshes: list[MeshShape] = []
         for node, depth, overridden in walk(root):
@@ -839,6 +840,7 @@ class NodeDesign(Design):
             used = node.materials if isinstance(node, Fgrade) else ()
             if isinstance(node, Primitive) and node.material is not None:
                 used = (node.material,)
+            unnamed |= isinstance(node, Primitive) and node.material is None and not overridden
             for name in used:
                 material = library.get(name, **node.where.error_kwargs())
                 key = material.name.lower()
@@ -850,7 +852,7 @@ class NodeDesign(Design):
                     names.append(material.name)
                     materials.append(material)
         if not materials:
-            if self.has_void:
+            if self.has_void and not unnamed:
                 raise DesignError(
                     "the design is made of void only: nothing would be printed",
                     hint="give the part a material besides 'void'",
