@@ -142,7 +142,8 @@ class _Builder:
 
     def field(self, arg: Arg) -> nodes.Field:
         """The compiled expression of string ``arg``, its errors showing the file's lines."""
-        return nodes.Field(arg.value, arg.where, file_lines=self.lines[arg.where.line - 1 :])
+        first = arg.where.line - 1
+        return nodes.Field(arg.value, arg.where, file_lines=self.lines[first : first + arg.value.count("\n") + 1])
 
     def material(self, arg: Arg | None) -> str | None:
         if arg is None:
