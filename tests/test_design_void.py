@@ -115,3 +115,17 @@ def test_a_void_hole_in_a_part_without_material_names_keeps_the_default_material
     design = parse_design('union() { sphere(3, "void"); cube(10); }')
     assert [m.name for m in design.materials] == ["default"]
     assert design.section(0.0).area == pytest.approx(100 - np.pi * 9, rel=2e-3)
+
+
+def test_the_void_grid_of_a_large_part_stays_bounded():
+    from fgslice.design import void
+
+    calls = []
+
+    def margin(x, y):
+        calls.append(np.broadcast_shapes(x.shape, y.shape))
+        return np.where(np.hypot(x, y) < 100, 1.0, -1.0)
+
+    region = void.void_region(margin, (-500, -500, 500, 500), 0.1)
+    assert np.prod(calls[0]) <= void.MAX_GRID_POINTS * 1.01
+    assert region.area == pytest.approx(np.pi * 100**2, rel=0.01)

@@ -6,7 +6,8 @@ in one plane: the margin ``f_void - max(f_others)`` is sampled on a regular grid
 ``> 0`` region is taken from contourpy's filled contours (linear interpolation between
 samples). Boundaries of continuous fractions are placed within about
 ``spacing^2 |f''| / (8 |grad f|)``; a jump (``thresh``) is placed midway between the two
-samples around it, within ``spacing / 2``. Ties (margin exactly 0) are printed.
+samples around it, within ``spacing / 2``. Ties (margin exactly 0) are printed. The
+spacing is widened where needed to keep the grid within :data:`MAX_GRID_POINTS`.
 """
 
 from __future__ import annotations
@@ -19,14 +20,19 @@ import shapely
 
 from fgslice.design.nodes import as_multipolygon
 
+MAX_GRID_POINTS = 4_000_000
+"""Most samples of one plane (a 200 x 200 mm outline at 0.1 mm)."""
+
 
 def void_region(margin_xy, bounds2d: tuple[float, float, float, float], spacing: float) -> shapely.MultiPolygon:
     """The region ``{margin_xy > 0}`` within ``bounds2d`` (mm), traced at ``spacing`` mm.
 
     ``margin_xy(x, y)`` takes broadcast arrays of x ``(1, nx)`` and y ``(ny, 1)`` and
-    returns the ``(ny, nx)`` margin; the grid reaches one spacing past the bounds.
+    returns the ``(ny, nx)`` margin; the grid reaches one spacing past the bounds and has
+    at most about :data:`MAX_GRID_POINTS` samples.
     """
     x0, y0, x1, y1 = bounds2d
+    spacing = max(spacing, math.sqrt((x1 - x0) * (y1 - y0) / MAX_GRID_POINTS))
     nx = math.ceil((x1 - x0) / spacing) + 3
     ny = math.ceil((y1 - y0) / spacing) + 3
     xs = x0 - spacing + spacing * np.arange(nx)
