@@ -104,3 +104,25 @@ def test_a_blended_part_prints_the_averaged_mixture(tmp_path):
     assert set(np.unique(commanded)) == {0, 1, 2, 3}
     filament = np.pi * settings.filament_diameter**2 / 4
     assert program.e[moves].sum() * filament == pytest.approx(40 * 10 * 2, rel=0.03)
+
+
+def test_a_child_of_one_material_is_left_as_it_is():
+    design = parse_design('blend(5) { translate(1, 0, 0) { sphere(3, "red"); } }')
+    np.testing.assert_array_equal(design.fractions(np.array([0.0, 3.9]), 0.0, 0.0), [[1.0], [1.0]])
+    assert design.section(0.0).area == pytest.approx(np.pi * 9, rel=1e-3)
+
+
+def test_the_stencil_averages_planar_steps_within_the_stated_accuracy():
+    from fgslice.design.blend import _unit_stencil
+
+    stencil = _unit_stencil()
+    t = (np.arange(96) + 0.5) / 96 - 0.5
+    reference = np.stack(np.meshgrid(t, t, t, indexing="ij"), -1).reshape(-1, 3)
+    rng = np.random.default_rng(3)
+    normals = rng.normal(size=(40, 3))
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    offsets = rng.uniform(-0.4, 0.4, 40)
+    errors = [abs((stencil @ n < c).mean() - (reference @ n < c).mean()) for n, c in zip(normals, offsets)]
+    assert max(errors) < 0.05 and np.mean(errors) < 0.01
+    for axis in range(3):  # each axis sees the midpoints of 512 equal cells
+        np.testing.assert_allclose(np.sort(stencil[:, axis]), (np.arange(LATTICE_POINTS) + 0.5) / LATTICE_POINTS - 0.5)
