@@ -305,3 +305,22 @@ def test_commands_import_numpy_first_and_help_does_without_it(design):
     assert [depth for depth, name in imports if name == "numpy"] == [0]
     names = [name for _, name in imports]
     assert names.index("numpy") < names.index("fgslice.design")
+
+
+def test_preview_reads_the_header_materials_from_the_materials_file(tmp_path):
+    library = tmp_path / "vtp.json"
+    library.write_text(json.dumps({"materials": [{"name": "state_a", "r": 255, "g": 0, "b": 0},
+                                                 {"name": "state_b", "r": 0, "g": 0, "b": 255}]}))
+    design = tmp_path / "states.vcad"
+    design.write_text('union() { translate(-5, 0, 0) { rectprism(10, 10, 1, "state_a"); }\n'
+                      '  translate(5, 0, 0) { rectprism(10, 10, 1, "state_b"); } }\n')
+    out, png = tmp_path / "states.gcode", tmp_path / "states.png"
+    assert run("slice", design, "-o", out, "--materials", library, "--colors", "2", "--jobs", "1").exit_code == 0
+    result = run("preview", out, "-o", png)
+    assert result.exit_code == 2 and "unknown material 'state_a'" in result.output and "--materials" in result.output
+    assert not png.exists()
+    result = run("preview", out, "-o", png, "--materials", library)
+    assert result.exit_code == 0, result.output
+    assert png.read_bytes()[:4] == b"\x89PNG"
+    result = run("preview", out, "-o", tmp_path / "sheet.png", "--sheet", "2", "--materials", library)
+    assert result.exit_code == 0, result.output

@@ -257,3 +257,22 @@ def test_deep_nesting_is_refused_before_parsing_with_its_location():
 def test_non_ascii_digits_are_not_numbers_in_designs(digit):
     with pytest.raises(DesignSyntaxError):
         parse_design(f"sphere({digit});")
+
+
+@pytest.mark.parametrize(
+    "text, line, column, shown",
+    [
+        ('union() {\n  fgrade(["x/10 +* 2", "1 - x"], ["red", "blue"]) { cube(5); }\n}',
+         2, 18, '  fgrade(["x/10 +* 2", "1 - x"], ["red", "blue"]) { cube(5); }'),
+        ('fgrade(["x/10",\n   "1 - foo(x)"], ["red", "blue"]) { cube(5); }',
+         2, 9, '   "1 - foo(x)"], ["red", "blue"]) { cube(5); }'),
+        ('function((-1, -1, -1), (1, 1, 1), "x +\n   y +* z", "red");', 2, 7, '   y +* z", "red");'),
+    ],
+    ids=["one-line", "second-string", "multi-line"],
+)
+def test_an_error_inside_an_expression_shows_the_files_own_line(text, line, column, shown):
+    err = error_of(text)
+    assert (err.line, err.column) == (line, column)
+    assert err.source_line == shown
+    caret = err.format().splitlines()[2]
+    assert caret.index("^") - 4 == column - 1

@@ -129,7 +129,7 @@ def test_fractions_are_clamped_then_normalized():
     np.testing.assert_allclose(graded(2.0, 0.5).raw_fractions(np.zeros(1), np.zeros(1), np.zeros(1))[0], [2, 0.5])
 
 
-def test_materials_are_listed_in_first_seen_order_and_named_primitives_win_inside_fgrade():
+def test_an_fgrade_overrides_the_materials_of_its_children():
     part = api.union(
         api.sphere(1, "green"),
         api.fgrade(
@@ -140,10 +140,23 @@ def test_materials_are_listed_in_first_seen_order_and_named_primitives_win_insid
         ),
     )
     design = api.design(part)
-    assert [m.name for m in design.materials] == ["green", "blue", "red"]
-    np.testing.assert_allclose(fractions_at(design, 0, 0, 0), [1, 0, 0])
-    np.testing.assert_allclose(fractions_at(design, 5, 0, 0), [0.75, 0.25, 0])
-    np.testing.assert_allclose(fractions_at(design, 10, 0, 0), [0, 0, 1])
+    assert [m.name for m in design.materials] == ["green", "blue"]
+    assert [name for name, _ in design.overridden] == ["red"]
+    np.testing.assert_allclose(fractions_at(design, 0, 0, 0), [1, 0])
+    np.testing.assert_allclose(fractions_at(design, 5, 0, 0), [0.75, 0.25])
+    np.testing.assert_allclose(fractions_at(design, 10, 0, 0), [0.75, 0.25])
+
+
+def test_the_outermost_fgrade_decides_over_nested_ones():
+    inner = api.fgrade(["1", "0"], ["red", "cyan"], api.cube(2))
+    outer = api.fgrade(["x / 4 + 0.5", "0.5 - x / 4"], ["blue", "yellow"], inner)
+    design = api.design(api.union(outer, api.translate((5, 0, 0), api.cube(2, "cyan"))))
+    assert [m.name for m in design.materials] == ["blue", "yellow", "cyan"]
+    assert [name for name, _ in design.overridden] == ["red"]
+    x = np.array([-0.5, 0.0, 0.5])
+    f = design.fractions(x, np.zeros(3), np.zeros(3))
+    np.testing.assert_allclose(f, np.column_stack([x / 4 + 0.5, 0.5 - x / 4, np.zeros(3)]))
+    np.testing.assert_allclose(fractions_at(design, 5, 0, 0), [0, 0, 1])
 
 
 def test_thresh_mode_gives_the_largest_fraction_outright():

@@ -301,7 +301,7 @@ def calibrate_lookahead(profile, sets, output, measured_error, segment_length, b
 @click.option("--layer", type=int, help="Layer number (0-based; default: the middle layer).")
 @click.option("--z", "z", type=float, help="Draw the layer nearest this height, mm.")
 @click.option("--design", "design_path", type=click.Path(dir_okay=False, path_type=Path), help="Draw the design's field at that height beside it.")
-@click.option("--materials", type=click.Path(dir_okay=False, path_type=Path), help="Material library JSON.")
+@click.option("--materials", type=click.Path(dir_okay=False, path_type=Path), help="Material library JSON (for the header's materials and --design).")
 @click.option("--travel", is_flag=True, help="Draw travel moves too.")
 @click.option("--sheet", type=int, metavar="N", help="A contact sheet of N evenly spaced layers instead.")
 @click.option("--attribute", metavar="NAME", help="Color by a process attribute as commanded: fan, flow, speed, temperature, infill_density.")
@@ -312,7 +312,12 @@ def preview_command(gcode, output, layer, z, design_path, materials, travel, she
     from fgslice.preview.layers import layer_count, nearest_layer, render_layer, render_sheet
 
     check_writable(output, inputs=(gcode,))
-    printout = load_printout(gcode)
+    library = None
+    if materials:
+        from fgslice.design.materials import load_library
+
+        library = load_library(materials)
+    printout = load_printout(gcode, library=library)
     if sheet:
         drawn = render_sheet(printout, output, count=sheet)
         click.echo(f"{output}: layers {', '.join(map(str, drawn))}")

@@ -233,8 +233,9 @@ def _colors_in_outline(job: SliceJob, index: int) -> int:
     size = job.palette.size
     if job.palette.n_materials != 2:
         return 1 if delta == 0.0 else size
-    lo, hi = job.palette.color_of(np.array([[f[:, 0].min() - delta, 0.0], [f[:, 0].max() + delta, 0.0]]))
-    return int(hi - lo + 1)
+    first = np.clip([f[:, 0].min() - delta, f[:, 0].max() + delta], 0.0, 1.0)
+    lo, hi = job.palette.color_of(np.c_[first, 1.0 - first])
+    return int(abs(hi - lo) + 1)
 
 
 def _speed_of(settings: Settings) -> Callable[[Path], float]:

@@ -18,6 +18,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from fgslice.design import nodes
+from fgslice.design.blend import Blend
 from fgslice.design.language import load_design, parse_design, resolve_mesh_path
 from fgslice.design.materials import MaterialLibrary, builtin_library, load_library
 from fgslice.errors import DesignError, MeshError
@@ -38,6 +39,7 @@ __all__ = [
     "scale",
     "fgrade",
     "attribute",
+    "blend",
     "design",
     "load_design",
     "parse_design",
@@ -161,9 +163,10 @@ def scale(factors, *children: nodes.Node) -> nodes.Node:
 
 
 def fgrade(fields: Sequence[Field], materials: Sequence[str], *children: nodes.Node, mode: str = "prob") -> nodes.Node:
-    """Grade the children's materials: ``fields[i]`` is the raw fraction of ``materials[i]``.
+    """Grade the children: ``fields[i]`` is the raw fraction of ``materials[i]``.
 
-    Fields are evaluated in this node's frame. ``mode``: "prob" (continuous fractions) or
+    The grade overrides every material named below it (the children give the geometry
+    only). Fields are evaluated in this node's frame. ``mode``: "prob" (continuous fractions) or
     "thresh" (the material with the largest fraction takes the point).
     """
     fields, materials = list(fields), list(materials)
@@ -194,6 +197,15 @@ def attribute(name: str, field: Field | float, *children: nodes.Node) -> nodes.N
     if isinstance(field, (int, float)) and not isinstance(field, bool):
         field = repr(float(field))
     return Attribute(name, nodes.Field(field), _children("attribute", children))
+
+
+def blend(size, *children: nodes.Node) -> nodes.Node:
+    """Average the children's fractions over a box of ``size = (sx, sy, sz)`` mm (or one
+    number for all axes) centred at each point; the geometry is the children's."""
+    vector = (float(size),) * 3 if isinstance(size, (int, float)) else _vector("blend", "size", size)
+    if any(v < 0 for v in vector) or not any(v > 0 for v in vector):
+        raise DesignError("blend: sizes must be >= 0 with at least one positive")
+    return Blend(vector, _children("blend", children))
 
 
 def design(

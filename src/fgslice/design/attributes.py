@@ -61,16 +61,15 @@ class Attribute(nodes.Node):
         self._body = self.children[0] if len(self.children) == 1 else nodes.Union(self.children, where)
 
     # geometry is the children's, as an fgrade's
-    sdf = nodes.Fgrade.sdf
-    _bounds = nodes.Fgrade._bounds
-    _sections = nodes.Fgrade._sections
+    sdf = nodes.MaterialNode.sdf
+    _bounds = nodes.MaterialNode._bounds
+    _sections = nodes.MaterialNode._sections
 
     # materials are the children's, as under a transform
     coordinate_free = nodes.Affine.coordinate_free
-    passes_context = nodes.Affine.passes_context
 
-    def raw(self, x, y, z, ctx, columns):
-        return self._body.raw(x, y, z, ctx, columns)
+    def raw(self, x, y, z, columns):
+        return self._body.raw(x, y, z, columns)
 
     def values(self, x, y, z) -> np.ndarray:
         """The field at points of this node's frame (1-D arrays), float64."""
@@ -89,7 +88,7 @@ class AttributeFields:
         self.root = root
         self._below: dict[int, frozenset[str]] = {}
         names: list[str] = []
-        for node, _ in nodes.walk(root):
+        for node, *_ in nodes.walk(root):
             if isinstance(node, Attribute) and node.name not in names:
                 names.append(node.name)
         self.names = tuple(names)
@@ -97,7 +96,7 @@ class AttributeFields:
 
     def _collect(self, root: nodes.Node) -> None:
         """For every node, the attribute names used in its subtree (post-order, no recursion)."""
-        order = [node for node, _ in nodes.walk(root)]
+        order = [node for node, *_ in nodes.walk(root)]
         for node in reversed(order):
             own = {node.name} if isinstance(node, Attribute) else set()
             for child in node.children:

@@ -44,6 +44,8 @@ class CheckReport:
         spacing: grid step used, mm.
         warnings: problems that still allow slicing.
         errors: problems that make the design unusable.
+        notes: facts worth knowing that are not problems (materials overridden by an
+            enclosing fgrade, void cut out of the part).
     """
 
     materials: list[Material]
@@ -55,6 +57,7 @@ class CheckReport:
     spacing: float = 0.0
     warnings: list[str] = field(default_factory=list)
     errors: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
 
     @property
     def usable(self) -> bool:
@@ -100,6 +103,13 @@ def check_design(design: Design, *, samples: int = DEFAULT_SAMPLES, settings=Non
     node_count = design.node_count if isinstance(design, NodeDesign) else 0
     report = CheckReport(list(design.materials), bounds, node_count)
     if isinstance(design, NodeDesign):
+        for name, where in design.overridden:
+            at = f" (line {where.line})" if where.line is not None else ""
+            report.notes.append(
+                f"material '{name}'{at} is overridden by an enclosing fgrade and is never printed"
+            )
+        if design.has_void:
+            report.notes.append("'void' is empty space: nothing is printed where it has the largest fraction")
         for mesh in design.meshes:
             if not mesh.geometry.watertight:
                 report.warnings.append(
@@ -204,6 +214,7 @@ def format_report(report: CheckReport) -> str:
         lines.append(f"attribute {name:<14} {lo:.4g} .. {hi:.4g} {UNITS[name]}")
     lines.append(f"nodes: {report.node_count}")
     lines.append(f"samples inside the part: {report.inside_samples} (grid step {report.spacing:.3g} mm)")
+    lines.extend(f"note: {n}" for n in report.notes)
     lines.extend(f"warning: {w}" for w in report.warnings)
     lines.extend(f"error: {e}" for e in report.errors)
     lines.append("usable: yes" if report.usable else "usable: no")

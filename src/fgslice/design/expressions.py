@@ -16,8 +16,9 @@ are case-insensitive. The reference is ``docs/expressions.md``.
 Errors point into the file holding the expression: ``compile_expression`` takes the
 line and column where the text starts, and every :class:`~fgslice.errors.DesignSyntaxError`
 or :class:`~fgslice.errors.DesignError` carries the file line/column of the offending
-token and a ``source_line`` (the expression's line, indented on its first line so the
-caret lines up with the file column).
+token and a ``source_line``: the file's own line when ``compile_expression`` is given the
+file's lines (``file_lines``), else the expression's line, indented on its first line so
+the caret lines up with the file column.
 """
 
 from __future__ import annotations
@@ -235,12 +236,15 @@ _BINARY = {
 class _Source:
     """The expression text and where it starts in its file; builds located errors."""
 
-    def __init__(self, text: str, file: str | Path | None, line: int, column: int) -> None:
+    def __init__(self, text: str, file: str | Path | None, line: int, column: int,
+                 file_lines: Sequence[str] | None = None) -> None:
         self.text = text
         self.file = file
         self.line = line
         self.column = column
         self.lines = text.split("\n")
+        spanned = None if file_lines is None else tuple(file_lines[: len(self.lines)])
+        self.file_lines = spanned if spanned is not None and len(spanned) == len(self.lines) else None
 
     def position(self, offset: int) -> tuple[int, int]:
         """1-based (line, column) in the file of character ``offset`` of the text."""
@@ -252,7 +256,10 @@ class _Source:
         return self.line + row, col
 
     def source_line(self, file_line: int) -> str:
-        """The expression's text on ``file_line``, indented on its first line like the file."""
+        """The file's ``file_line`` when its lines are known, else the expression's text on
+        it, indented on its first line like the file."""
+        if self.file_lines is not None:
+            return self.file_lines[file_line - self.line]
         text = self.lines[file_line - self.line]
         return " " * (self.column - 1) + text if file_line == self.line else text
 
@@ -733,9 +740,10 @@ class Expression:
         variables: canonical lowercase names of the variables it uses (``phic`` and
             ``theta`` appear as ``phi``); ``'d'`` means the caller must pass ``d``.
         file, line, column: where the text starts (for messages).
+        file_lines: the file's lines the text spans, shown in messages (None: the text's own).
     """
 
-    __slots__ = ("text", "variables", "file", "line", "column", "_graph", "_root", "_program", "_d_offset")
+    __slots__ = ("text", "variables", "file", "line", "column", "file_lines", "_graph", "_root", "_program", "_d_offset")
 
     def __init__(
         self,
@@ -747,12 +755,14 @@ class Expression:
         graph: _Graph,
         root: int,
         d_offset: int | None,
+        file_lines: tuple[str, ...] | None = None,
     ) -> None:
         self.text = text
         self.variables = variables
         self.file = file
         self.line = line
         self.column = column
+        self.file_lines = file_lines
         self._graph = graph
         self._root = root
         self._program = _Program(graph, [root])
@@ -762,10 +772,10 @@ class Expression:
         return f"Expression({self.text!r})"
 
     def __reduce__(self):
-        return (_recompile, (self.text, self.file, self.line, self.column))
+        return (_recompile, (self.text, self.file, self.line, self.column, self.file_lines))
 
     def _source(self) -> _Source:
-        return _Source(self.text, self.file, self.line, self.column)
+        return _Source(self.text, self.file, self.line, self.column, self.file_lines)
 
     def _missing_d(self) -> FgsliceError:
         return self._source().error(
@@ -869,13 +879,23 @@ def _coordinates(x, y, z, d) -> tuple[dict[str, np.ndarray], tuple[int, ...]]:
     return coords, np.broadcast_shapes(*(a.shape for a in coords.values()))
 
 
-def _recompile(text: str, file: str | None, line: int, column: int) -> Expression:
+def _recompile(text: str, file: str | None, line: int, column: int, file_lines: tuple[str, ...] | None) -> Expression:
     """Unpickling: compile the text again (compiled steps are closures)."""
-    return compile_expression(text, file=file, line=line, column=column)
+    return compile_expression(text, file=file, line=line, column=column, file_lines=file_lines)
 
 
-def compile_expression(text: str, *, file: str | Path | None = None, line: int = 1, column: int = 1) -> Expression:
+def compile_expression(
+    text: str,
+    *,
+    file: str | Path | None = None,
+    line: int = 1,
+    column: int = 1,
+    file_lines: Sequence[str] | None = None,
+) -> Expression:
     """Compile expression ``text`` whose first character is at ``line``/``column`` of ``file``.
+
+    ``file_lines``: the file's lines from ``line`` on (more are ignored); errors then show
+    the file's own line under their caret.
 
     Raises:
         DesignSyntaxError: the text is not an expression of the language (including text
@@ -883,7 +903,7 @@ def compile_expression(text: str, *, file: str | Path | None = None, line: int =
             numbers that overflow float64).
         DesignError: an unknown name, a function used as a value, a wrong argument count.
     """
-    src = _Source(text, None if file is None else str(file), line, column)
+    src = _Source(text, None if file is None else str(file), line, column, file_lines)
     if len(text) > MAX_LENGTH:
         raise src.error(
             DesignSyntaxError,
@@ -907,4 +927,6 @@ def compile_expression(text: str, *, file: str | Path | None = None, line: int =
         raise _syntax_error(src, exc) from None
     compiler = _Compiler(src)
     root = compiler.compile(tree)
-    return Expression(text, frozenset(compiler.used), src.file, line, column, compiler.graph, root, compiler.d_offset)
+    return Expression(
+        text, frozenset(compiler.used), src.file, line, column, compiler.graph, root, compiler.d_offset, src.file_lines
+    )

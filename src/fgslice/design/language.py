@@ -19,6 +19,7 @@ import lark
 import numpy as np
 
 from fgslice.design import nodes
+from fgslice.design.blend import Blend
 from fgslice.design.lark_cache import cached_lark
 from fgslice.design.materials import MaterialLibrary, builtin_library, load_library
 from fgslice.errors import DesignError, DesignSyntaxError, MeshError, did_you_mean
@@ -138,6 +139,11 @@ class _Builder:
             or "known: " + ", ".join(list(_PRIMITIVES) + list(_OPERATORS)),
             **where.error_kwargs(),
         )
+
+    def field(self, arg: Arg) -> nodes.Field:
+        """The compiled expression of string ``arg``, its errors showing the file's lines."""
+        first = arg.where.line - 1
+        return nodes.Field(arg.value, arg.where, file_lines=self.lines[first : first + arg.value.count("\n") + 1])
 
     def material(self, arg: Arg | None) -> str | None:
         if arg is None:
@@ -263,7 +269,7 @@ def _function(b: _Builder, args, where):
             "function: the box's first corner must be below the second on every axis",
             **args[0].where.error_kwargs(),
         )
-    field = nodes.Field(text, args[2].where)
+    field = b.field(args[2])
     return nodes.FunctionShape(lo, hi, field, b.material(mat), where)
 
 
@@ -331,6 +337,20 @@ def _vector_op(cls, name: str, allow_uniform: bool = False):
     return make
 
 
+def _blend(b: _Builder, args, children, where, top):
+    values = _match(
+        "blend", "(sx, sy, sz), ((sx, sy, sz)) or (s) in mm", args,
+        [("number", "number", "number"), ("vector3",), ("number",)], where,
+    )[0]
+    size = values[0] if isinstance(values[0], tuple) else tuple(values) * (3 // len(values))
+    if any(v < 0 for v in size) or not any(v > 0 for v in size):
+        raise DesignError(
+            f"blend: sizes must be >= 0 with at least one positive, got {', '.join(f'{v:g}' for v in size)}",
+            **where.error_kwargs(),
+        )
+    return Blend(size, children, where)
+
+
 def _fgrade(b: _Builder, args, children, where, top):
     _match(
         "fgrade",
@@ -363,7 +383,7 @@ def _fgrade(b: _Builder, args, children, where, top):
         if name.lower() in seen:
             raise DesignError(f"material '{name}' appears twice in this fgrade", **m.where.error_kwargs())
         seen.add(name.lower())
-    fields = [nodes.Field(e.value, e.where) for e in exprs]
+    fields = [b.field(e) for e in exprs]
     return nodes.Fgrade(fields, names, children, mode, where)
 
 
@@ -395,6 +415,7 @@ _OPERATORS = {
     "scale": _vector_op(nodes.Scale, "scale", allow_uniform=True),
     "fgrade": _fgrade,
     "attribute": _attribute,
+    "blend": _blend,
 }
 
 

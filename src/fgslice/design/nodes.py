@@ -12,14 +12,16 @@ Every node works in its own frame (millimetres). A node provides
   sampled with :func:`fgslice.design.sampled.section_from_sdf` at ``spacing``.
   ``sections(zs, spacing)`` gives the same outlines at several heights, computed
   together where that is faster (a mesh sections many planes in one vectorized pass);
-* ``raw(x, y, z, ctx, columns)``: raw (unclamped) material fractions, ``(N, k)`` for 1-D
-  arrays, where ``ctx`` is the enclosing fgrade's fractions at those points (or None).
+* ``raw(x, y, z, columns)``: raw (unclamped) material fractions, ``(N, k)`` for 1-D
+  arrays.
 
-Material rules: a primitive naming a material has fraction 1 of it; one without a name
-takes the nearest enclosing ``fgrade``'s fractions, and outside any fgrade the design's
-first material. Where the children of a union (or fgrade) overlap, the first child that
-contains the point decides; outside all children, the nearest one. ``intersection`` and
-``difference`` take their first child's materials.
+Material rules (OpenVCAD's): an ``fgrade`` overrides everything below it, so the
+outermost fgrade enclosing a point decides its fractions and the children of an fgrade
+give only geometry; the materials named below an fgrade are hidden (never printed).
+Outside every fgrade, a primitive naming a material has fraction 1 of it and one without
+a name takes the design's first material. Where the children of a union overlap, the
+first child that contains the point decides; outside all children, the nearest one.
+``intersection`` and ``difference`` take their first child's materials.
 
 :class:`NodeDesign` wraps a tree into a :class:`fgslice.design.base.Design`.
 """
@@ -47,6 +49,10 @@ DEFAULT_SECTION_SPACING = 0.1
 DEFAULT_MATERIAL = Material("default", (0.5, 0.5, 0.5, 1.0))
 """The material of a design that names none."""
 
+VOID = "void"
+"""The name of empty space: where it has the largest fraction nothing is printed, elsewhere
+its fraction is dropped. It is never one of a design's materials."""
+
 _EMPTY = shapely.MultiPolygon()
 
 
@@ -72,18 +78,19 @@ class Field:
 
     Callables take numpy arrays ``(x, y, z)`` — or ``(x, y, z, d)`` when they accept a
     fourth argument, ``d`` being the signed distance of the fgrade's child — and return an
-    array broadcastable to the points' shape (or a scalar). ``expression`` is the compiled
+    array broadcastable to the points' shape (or a scalar). ``file_lines`` are the design
+    file's lines from the string's own on, shown in its errors. ``expression`` is the compiled
     :class:`~fgslice.design.expressions.Expression` of a string field, None for a callable.
     """
 
-    def __init__(self, source: str | Callable, where: Where = NOWHERE) -> None:
+    def __init__(self, source: str | Callable, where: Where = NOWHERE, file_lines: Sequence[str] | None = None) -> None:
         self.where = where
         if isinstance(source, str):
             from fgslice.design.expressions import compile_expression
 
             line = where.line if where.line is not None else 1
             column = where.column if where.column is not None else 1
-            self._fn = compile_expression(source, file=where.file, line=line, column=column)
+            self._fn = compile_expression(source, file=where.file, line=line, column=column, file_lines=file_lines)
             self.uses_d = "d" in self._fn.variables
             self.text = source
             self._callable = False
@@ -239,19 +246,14 @@ class Node:
     def _section(self, z: float, spacing: float) -> shapely.Geometry:
         return sampled_section(self, z, spacing)
 
-    def raw(self, x, y, z, ctx, columns: Columns) -> np.ndarray:
-        """Raw fractions ``(N, k)`` at 1-D points; ``ctx`` = enclosing fgrade's fractions."""
-        return self.children[0].raw(x, y, z, ctx, columns)
+    def raw(self, x, y, z, columns: Columns) -> np.ndarray:
+        """Raw fractions ``(N, k)`` at 1-D points of this node's frame."""
+        return self.children[0].raw(x, y, z, columns)
 
     @functools.cached_property
     def coordinate_free(self) -> bool:
         """Whether :meth:`raw` ignores the coordinates (then transforms need not map them)."""
         return self.children[0].coordinate_free
-
-    @functools.cached_property
-    def passes_context(self) -> bool:
-        """Whether :meth:`raw` returns ``ctx`` unchanged wherever a context is given."""
-        return self.children[0].passes_context
 
 
 def sampled_section(node: Node, z: float, spacing: float) -> shapely.Geometry:
@@ -273,13 +275,7 @@ class Primitive(Node):
 
     coordinate_free = True
 
-    @functools.cached_property
-    def passes_context(self) -> bool:
-        return self.material is None
-
-    def raw(self, x, y, z, ctx, columns: Columns) -> np.ndarray:
-        if self.material is None and ctx is not None:
-            return ctx
+    def raw(self, x, y, z, columns: Columns) -> np.ndarray:
         return columns.one_hot(np.shape(x)[0], self.material)
 
 
@@ -459,10 +455,10 @@ class MeshShape(Primitive):
         return self.geometry.sections(zs)
 
 
-def _union_raw(children: Sequence[Node], x, y, z, ctx, columns: Columns) -> np.ndarray:
+def _union_raw(children: Sequence[Node], x, y, z, columns: Columns) -> np.ndarray:
     """Fractions of a union: first child containing the point, else the nearest child."""
     if len(children) == 1:
-        return children[0].raw(x, y, z, ctx, columns)
+        return children[0].raw(x, y, z, columns)
     d = np.stack([np.broadcast_to(c.sdf(x, y, z), np.shape(x)) for c in children])
     inside = d <= 0
     owner = np.where(inside.any(axis=0), np.argmax(inside, axis=0), np.argmin(d, axis=0))
@@ -470,8 +466,7 @@ def _union_raw(children: Sequence[Node], x, y, z, ctx, columns: Columns) -> np.n
     for i, child in enumerate(children):
         sel = np.flatnonzero(owner == i)
         if sel.size:
-            sub_ctx = None if ctx is None else ctx[sel]
-            out[sel] = child.raw(x[sel], y[sel], z[sel], sub_ctx, columns)
+            out[sel] = child.raw(x[sel], y[sel], z[sel], columns)
     return out
 
 
@@ -491,16 +486,12 @@ class Union(Node):
     def _sections(self, zs, spacing):
         return list(shapely.union_all(np.array([c.sections(zs, spacing) for c in self.children], dtype=object), axis=0))
 
-    def raw(self, x, y, z, ctx, columns):
-        return _union_raw(self.children, x, y, z, ctx, columns)
+    def raw(self, x, y, z, columns):
+        return _union_raw(self.children, x, y, z, columns)
 
     @functools.cached_property
     def coordinate_free(self) -> bool:
         return len(self.children) == 1 and self.children[0].coordinate_free
-
-    @functools.cached_property
-    def passes_context(self) -> bool:
-        return all(c.passes_context for c in self.children)
 
 
 class Intersection(Node):
@@ -601,18 +592,14 @@ class Affine(Node):
 
         return list(shapely.transform(np.array(children, dtype=object), plane_map))
 
-    def raw(self, x, y, z, ctx, columns):
+    def raw(self, x, y, z, columns):
         if self._body.coordinate_free:
-            return self._body.raw(x, y, z, ctx, columns)
-        return self._body.raw(*self.local(x, y, z), ctx, columns)
+            return self._body.raw(x, y, z, columns)
+        return self._body.raw(*self.local(x, y, z), columns)
 
     @functools.cached_property
     def coordinate_free(self) -> bool:
         return self._body.coordinate_free
-
-    @functools.cached_property
-    def passes_context(self) -> bool:
-        return self._body.passes_context
 
 
 class Translate(Affine):
@@ -659,10 +646,28 @@ class Scale(Affine):
         super().__init__(np.diag(np.asarray(factors, dtype=float)), np.zeros(3), child, where)
 
 
-class Fgrade(Node):
+class MaterialNode(Node):
+    """A node that keeps its children's geometry (their union) and sets the materials."""
+
+    def __init__(self, children: Sequence[Node], where: Where = NOWHERE) -> None:
+        super().__init__(children, where)
+        self._body = children[0] if len(children) == 1 else Union(children, where)
+
+    def sdf(self, x, y, z):
+        return self._body.sdf(x, y, z)
+
+    def _bounds(self):
+        return self._body.bounds()
+
+    def _sections(self, zs, spacing):
+        return self._body.sections(zs, spacing)
+
+
+class Fgrade(MaterialNode):
     """Material grading: fractions ``fields`` of ``materials`` over the children.
 
-    Fields see this node's own frame. ``d`` is the children's (union) signed distance.
+    The fractions override the children's materials (the children give the geometry
+    only). Fields see this node's own frame. ``d`` is the children's (union) signed distance.
     ``mode``: ``"prob"`` (default) keeps the continuous fractions; ``"thresh"`` gives
     each point entirely to the material with the largest clamped fraction (first on ties).
     """
@@ -681,16 +686,6 @@ class Fgrade(Node):
         self.fields = tuple(fields)
         self.materials = tuple(materials)
         self.mode = mode
-        self._body = children[0] if len(children) == 1 else Union(children, where)
-
-    def sdf(self, x, y, z):
-        return self._body.sdf(x, y, z)
-
-    def _bounds(self):
-        return self._body.bounds()
-
-    def _sections(self, zs, spacing):
-        return self._body.sections(zs, spacing)
 
     @functools.cached_property
     def _group(self):
@@ -749,27 +744,23 @@ class Fgrade(Node):
         return out
 
     coordinate_free = False
-    passes_context = False
 
-    def raw(self, x, y, z, ctx, columns):
-        return _union_raw(self.children, x, y, z, self.own_fractions(x, y, z, columns), columns)
-
-    @functools.cached_property
-    def passes_children_context(self) -> bool:
-        """Whether every child keeps this node's fractions (then raw = own fractions)."""
-        return all(c.passes_context for c in self.children)
+    def raw(self, x, y, z, columns):
+        return self.own_fractions(x, y, z, columns)
 
 
 # ----------------------------------------------------------------------------- design
 
 
 def walk(root: Node):
-    """Nodes in document order (pre-order) with their depth, without recursion."""
-    stack = [(root, 1)]
+    """Nodes in document order (pre-order), without recursion, with their depth and whether
+    an fgrade above them overrides their materials."""
+    stack = [(root, 1, False)]
     while stack:
-        node, depth = stack.pop()
-        yield node, depth
-        stack.extend((c, depth + 1) for c in reversed(node.children))
+        node, depth, overridden = stack.pop()
+        yield node, depth, overridden
+        below = overridden or isinstance(node, Fgrade)
+        stack.extend((c, depth + 1, below) for c in reversed(node.children))
 
 
 def normalized(raw: np.ndarray) -> np.ndarray:
@@ -831,9 +822,12 @@ class NodeDesign(Design):
         self.source = source
         names: list[str] = []
         materials: list[Material] = []
+        hidden: dict[str, tuple[str, Where]] = {}
+        self.has_void = False
+        unnamed = False
         self.node_count = 0
         self.meshes: list[MeshShape] = []
-        for node, depth in walk(root):
+        for node, depth, overridden in walk(root):
             self.node_count += 1
             if depth > MAX_DEPTH:
                 raise DesignError(
@@ -846,46 +840,72 @@ class NodeDesign(Design):
             used = node.materials if isinstance(node, Fgrade) else ()
             if isinstance(node, Primitive) and node.material is not None:
                 used = (node.material,)
+            unnamed |= isinstance(node, Primitive) and node.material is None and not overridden
             for name in used:
                 material = library.get(name, **node.where.error_kwargs())
-                if material.name.lower() not in (n.lower() for n in names):
+                key = material.name.lower()
+                if overridden:
+                    hidden.setdefault(key, (material.name, node.where))
+                elif key == VOID:
+                    self.has_void = True
+                elif key not in (n.lower() for n in names):
                     names.append(material.name)
                     materials.append(material)
         if not materials:
+            if self.has_void and not unnamed:
+                raise DesignError(
+                    "the design is made of void only: nothing would be printed",
+                    hint="give the part a material besides 'void'",
+                    **root.where.error_kwargs(),
+                )
             names, materials = [DEFAULT_MATERIAL.name], [DEFAULT_MATERIAL]
+        visible = {n.lower() for n in names} | ({VOID} if self.has_void else set())
+        self.overridden = [(name, where) for key, (name, where) in hidden.items() if key not in visible]
+        """Materials named only below an fgrade, which overrides them: ``(name, where)`` of
+        each one's first mention. They are not among :attr:`materials`."""
         self._materials = materials
-        self.columns = Columns(names)
+        self.columns = Columns(names + ([VOID] if self.has_void else []))
 
     @property
     def materials(self) -> list[Material]:
         return list(self._materials)
 
     def sdf(self, x, y, z) -> np.ndarray:
+        """Signed distance (mm, negative inside). With void: ``max(sdf, void_margin * 1 mm)``,
+        of the right sign (void regions are outside) but not a distance near them."""
         x, y, z = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (x, y, z)))
         shape = x.shape
         x, y, z = x.ravel(), y.ravel(), z.ravel()
         out = np.empty(x.size)
         for s in _chunks(x.size):
             out[s] = self.root.sdf(x[s], y[s], z[s])
+        if self.has_void:
+            np.maximum(out, self.void_margin(x, y, z), out=out)
         return out.reshape(shape)
+
+    def void_margin(self, x, y, z) -> np.ndarray:
+        """Normalized void fraction minus the largest other fraction (broadcast shape):
+        positive exactly where void wins and nothing is printed. Only for designs with void."""
+        f = self._per_chunk(x, y, z, normalize=True)
+        return f[..., -1] - f[..., :-1].max(axis=-1)
 
     def _per_chunk(self, x, y, z, normalize: bool) -> np.ndarray:
         x, y, z = (np.asarray(v, dtype=float) for v in (x, y, z))
         shape = np.broadcast_shapes(x.shape, y.shape, z.shape)
         root = self.root
-        if isinstance(root, Fgrade) and root.passes_children_context:
+        if isinstance(root, Fgrade):
             return self._broadcast_fractions(root, x, y, z, shape, normalize)
         x, y, z = np.broadcast_arrays(x, y, z)
         x, y, z = x.ravel(), y.ravel(), z.ravel()
         out = np.empty((x.size, self.columns.k))
         for s in _chunks(x.size):
-            raw = self.root.raw(x[s], y[s], z[s], None, self.columns)
+            raw = self.root.raw(x[s], y[s], z[s], self.columns)
             out[s] = normalized(raw) if normalize else raw
         return out.reshape(shape + (self.columns.k,))
 
     def _broadcast_fractions(self, root: Fgrade, x, y, z, shape, normalize: bool) -> np.ndarray:
-        """Fractions of a root fgrade whose children keep its fractions (its own fractions,
-        without walking the children), on broadcast inputs.
+        """Fractions of a root fgrade (its own fractions, without walking the children), on
+        broadcast inputs.
 
         Inputs are never expanded: blocks of whole rows are evaluated, and an input constant
         along the first axis (a grid's row of x, a single z) is passed as it is. Inputs
@@ -905,11 +925,15 @@ class NodeDesign(Design):
         return out.reshape(shape + (self.columns.k,))
 
     def raw_fractions(self, x, y, z) -> np.ndarray:
-        """Raw (unclamped, unnormalized) fractions, shape ``broadcast + (k,)``."""
-        return self._per_chunk(x, y, z, normalize=False)
+        """Raw (unclamped, unnormalized) fractions, shape ``broadcast + (k,)`` (void left out)."""
+        raw = self._per_chunk(x, y, z, normalize=False)
+        return raw[..., : len(self._materials)] if self.has_void else raw
 
     def fractions(self, x, y, z) -> np.ndarray:
-        return self._per_chunk(x, y, z, normalize=True)
+        """Normalized fractions; with void, its fraction is dropped and the others divided
+        by their sum (the first material where they sum to 0)."""
+        f = self._per_chunk(x, y, z, normalize=True)
+        return normalized(f[..., :-1]) if self.has_void else f
 
     def bounds(self):
         lo, hi = self.root.bounds()
@@ -920,8 +944,17 @@ class NodeDesign(Design):
         return self.sections([z], spacing)[0]
 
     def sections(self, zs: Sequence[float], spacing: float | None = None) -> list[shapely.MultiPolygon]:
-        """Outlines at every height of ``zs``, like :meth:`section` at each, computed together."""
-        return [as_multipolygon(g) for g in self.root.sections([float(z) for z in zs], spacing or self.section_spacing)]
+        """Outlines at every height of ``zs``, like :meth:`section` at each, computed together.
+
+        With void, each outline loses the region where void wins, traced on a grid of
+        ``spacing`` mm (:func:`fgslice.design.void.void_region`)."""
+        spacing = spacing or self.section_spacing
+        outlines = [as_multipolygon(g) for g in self.root.sections([float(z) for z in zs], spacing)]
+        if self.has_void:
+            from fgslice.design.void import without_void
+
+            outlines = [without_void(self, outline, float(z), spacing) for outline, z in zip(outlines, zs)]
+        return outlines
 
     def prepare_sections(self) -> None:
         """Build every mesh's whole tables now (:meth:`fgslice.design.mesh.MeshGeometry.prepare_sections`)."""

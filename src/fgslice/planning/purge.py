@@ -196,9 +196,12 @@ class PurgeTower:
         return float(self._serpentine[1][2 * row]) if row < self.rows else float(self._serpentine[1][-1])
 
     def rows_used(self, length: float) -> int:
-        """Rows the first ``length`` mm of the serpentine cover (a row begun counts)."""
+        """Rows the first ``length`` mm of the serpentine cover (a row begun counts, and so
+        does the row of a turn the line ends in)."""
+        if length <= 0:
+            return 0
         _, arc = self._serpentine
-        return int(np.searchsorted(arc[1::2], length - 1e-9)) + 1 if length > 0 else 0
+        return min(int(np.searchsorted(arc, length - 1e-9, side="right")) - 1, len(arc) - 2) // 2 + 1
 
     def purge_path_at(self, start: float, length: float, color: int, height: float) -> Path:
         """``length`` mm of the serpentine from arc length ``start`` on: purges laid one

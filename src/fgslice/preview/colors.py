@@ -27,7 +27,7 @@ import numpy as np
 
 from fgslice.colors import materials_rgba, mix_rgba
 from fgslice.design.base import Material
-from fgslice.design.materials import builtin_library
+from fgslice.design.materials import MaterialLibrary, builtin_library
 from fgslice.errors import DesignError, GcodeError
 from fgslice.machine.gcode_header import GcodeHeader, parse_header, read_header
 from fgslice.machine.gcode_reader import GcodeProgram, read_gcode
@@ -64,20 +64,22 @@ class Printout:
     materials: list[Material] | None = None
 
 
-def header_materials(info: GcodeHeader, file: str | None = None) -> list[Material] | None:
-    """The built-in materials named by the header's ``; materials = a,b``, or None without it.
+def header_materials(info: GcodeHeader, file: str | None = None,
+                     library: MaterialLibrary | None = None) -> list[Material] | None:
+    """The materials named by the header's ``; materials = a,b``, or None without it, looked
+    up in ``library`` (default the built-in one; a materials file's for its own names).
 
     Raises:
-        GcodeError: a name the built-in library does not know (with the header line).
+        GcodeError: a name the library does not know (with the header line).
     """
     if not info.materials:
         return None
-    library = builtin_library()
+    library = library or builtin_library()
     try:
         return [library.get(name) for name in info.materials]
     except DesignError as exc:
         raise GcodeError(f"header 'materials': {exc.message}", file=file, line=info.lines.get("materials"),
-                         hint=exc.hint) from None
+                         hint="give the materials file the design was sliced with (--materials FILE)") from None
 
 
 def _read_source_header(source: str | os.PathLike | bytes) -> tuple[str | None, GcodeHeader]:
@@ -92,12 +94,13 @@ def _read_source_header(source: str | os.PathLike | bytes) -> tuple[str | None, 
 
 
 def load_printout(source: str | os.PathLike | bytes | GcodeProgram | Printout, info: GcodeHeader | None = None,
-                  materials: list[Material] | None = None) -> Printout:
+                  materials: list[Material] | None = None, library: MaterialLibrary | None = None) -> Printout:
     """A :class:`Printout` from a G-code path, its bytes or text, a read program or a printout.
 
     ``info`` replaces the header's (needed for a bare :class:`GcodeProgram`, which has
     no header; without it such a program is drawn without material colors);
-    ``materials`` replaces the header's materials (e.g. the design's own).
+    ``materials`` replaces the header's materials (e.g. the design's own); ``library``
+    resolves the header's material names (default the built-in library).
 
     Raises:
         GcodeError: not readable G-code, or a malformed header.
@@ -112,7 +115,7 @@ def load_printout(source: str | os.PathLike | bytes | GcodeProgram | Printout, i
         name, header = _read_source_header(source)
         program = read_gcode(source)
     info = info or header
-    return Printout(program, info, name, materials or header_materials(info, name))
+    return Printout(program, info, name, materials or header_materials(info, name, library))
 
 
 @dataclass(frozen=True)
