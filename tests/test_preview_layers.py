@@ -169,3 +169,16 @@ def test_the_key_fits_in_the_picture_beside_the_panels(tmp_path, profile, size):
     panels_right = max(a.get_window_extent(renderer).x1 for a in fig.axes if a not in colorbars)
     assert panels_right <= keys[0].x0 and keys[0].x1 <= size[0]
     assert 0 <= keys[0].y0 and keys[0].y1 <= size[1]
+
+
+def test_a_design_without_material_names_previews_in_its_default_gray(tmp_path):
+    """A design that names no material has the one material ``default`` (gray); its G-code
+    previews without a materials file, its beads in that gray."""
+    out = tmp_path / "plain.gcode"
+    settings = load_settings(None, {"skirt_loops": "0"})
+    slice_to_gcode(api.design(api.rectprism(20, 20, 2)), settings, out, jobs=1)
+    pixels = _pixels(layer_png(out, 1, size=SIZE))[..., :3]
+    gray = np.all(np.abs(pixels - 0.5) < 0.02, axis=-1)
+    fig, ax = layer_figure(out, 1, size=SIZE)
+    (x0, y0), (x1, y1) = ax.transData.transform([(0.0, 0.0), (20.0, 20.0)])  # the part's size in pixels
+    assert gray.sum() > 0.3 * (x1 - x0) * (y1 - y0)

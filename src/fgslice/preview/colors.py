@@ -28,6 +28,7 @@ import numpy as np
 from fgslice.colors import materials_rgba, mix_rgba
 from fgslice.design.base import Material
 from fgslice.design.materials import MaterialLibrary, builtin_library
+from fgslice.design.nodes import DEFAULT_MATERIAL
 from fgslice.errors import DesignError, GcodeError
 from fgslice.machine.gcode_header import GcodeHeader, parse_header, read_header
 from fgslice.machine.gcode_reader import GcodeProgram, read_gcode
@@ -67,7 +68,8 @@ class Printout:
 def header_materials(info: GcodeHeader, file: str | None = None,
                      library: MaterialLibrary | None = None) -> list[Material] | None:
     """The materials named by the header's ``; materials = a,b``, or None without it, looked
-    up in ``library`` (default the built-in one; a materials file's for its own names).
+    up in ``library`` (default the built-in one; a materials file's for its own names);
+    ``default`` is the material of a design that names none.
 
     Raises:
         GcodeError: a name the library does not know (with the header line).
@@ -76,7 +78,7 @@ def header_materials(info: GcodeHeader, file: str | None = None,
         return None
     library = library or builtin_library()
     try:
-        return [library.get(name) for name in info.materials]
+        return [DEFAULT_MATERIAL if name == DEFAULT_MATERIAL.name else library.get(name) for name in info.materials]
     except DesignError as exc:
         raise GcodeError(f"header 'materials': {exc.message}", file=file, line=info.lines.get("materials"),
                          hint="give the materials file the design was sliced with (--materials FILE)") from None
