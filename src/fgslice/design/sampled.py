@@ -1,4 +1,4 @@
-"""Outlines of 2D signed fields: an adaptive narrow band, marching squares, Newton projection.
+"""Outlines of 2D signed fields: an adaptive narrow band, marching squares, vertices on the zero level.
 
 :func:`section_from_sdf` is the general section of implicit designs (``function`` shapes,
 tilted rotations). It never samples a dense grid:
@@ -14,9 +14,10 @@ tilted rotations). It never samples a dense grid:
    directed segments with the inside (``f <= 0``) on their left. A segment leaving the
    refined cells marks the coarse cell it enters for refinement, until every contour is
    closed, so an underestimated slope costs time, not a broken outline.
-3. Vertices start on the cell edges (linear interpolation) and are moved onto the zero
-   level by Newton steps; edges whose midpoint is farther than ``tolerance`` from the zero
-   level are split at the projected midpoint, and only the new edges are checked again.
+3. Vertices are put on the zero level along their cell edges (regula falsi, so the rings
+   keep marching squares' topology); edges whose midpoint is farther than ``tolerance``
+   from the zero level (searched along the chord's perpendicular bisector, within half
+   the chord) are split there, and only the new edges are checked again.
 4. Rings are oriented by construction (counter-clockwise shells, clockwise holes); every
    hole goes to the smallest shell containing it. The result is clipped to ``bounds2d`` as
    an exact rectangle: a shape touching or crossing the box is closed along its sides
@@ -47,9 +48,10 @@ _REFINE = 4
 """Fine cells per coarse cell side."""
 _SAFETY = 2.0
 """Factor on the largest local difference quotient making a cell's slope bound."""
-_NEWTON_STEPS = 6
+_ROOT_STEPS = 12
+"""Most regula falsi steps a vertex gets."""
 _CONVERGED = 1e-6
-"""Newton steps below this many ``cell`` end a vertex's projection."""
+"""Steps below this many ``cell`` end a vertex's root search."""
 _MAX_SUBDIVISION_ROUNDS = 8
 _OUTSIDE = 1e-9
 """Value given to outer-ring nodes where the field is not positive: outside, without a
@@ -90,11 +92,6 @@ _SEGMENTS = _segment_table()
 _SEGMENT_COUNTS = np.array([len(s) for s in _SEGMENTS])
 _SEGMENT_FIRST = np.r_[0, np.cumsum(_SEGMENT_COUNTS)[:-1]]
 _SEGMENT_PAIRS = np.array([pair for s in _SEGMENTS for pair in s], dtype=np.int64)
-_EDGE_FROM = np.array([0, 1, 3, 0])
-_EDGE_TO = np.array([1, 2, 2, 3])
-_EDGE_DX = np.array([0, 1, 0, 0])
-"""Offset of each edge's first node from the cell's lower-left node, along x and y."""
-_EDGE_DY = np.array([0, 0, 1, 0])
 
 
 def section_from_sdf(
@@ -120,14 +117,15 @@ def section_from_sdf(
         field is positive throughout the box.
     """
     grid = _Grid(sdf_xy, bounds2d, cell)
-    starts, ends, points = grid.contours(grid.coarse_band())
+    starts, ends = grid.contours(grid.coarse_band())
     if not starts.size:
         return shapely.MultiPolygon()
-    fixed = grid.fixed(starts)
     order, ring = _rings(starts, ends)
-    points, fixed = points[order], fixed[order]
-    moved = _project(sdf_xy, points[~fixed], cell, cell)
-    points[~fixed] = moved
+    edges = starts[order]
+    fixed = grid.fixed(edges)
+    p0, p1, f0, f1 = grid.edge_ends(edges)
+    points = np.column_stack(_falsi(p0[:, 0], p0[:, 1], p1[:, 0], p1[:, 1], f0, f1))
+    points[~fixed] = _root_on_edges(sdf_xy, p0[~fixed], p1[~fixed], f0[~fixed], f1[~fixed], cell)
     points, ring = _subdivide(sdf_xy, points, fixed, ring, tolerance, cell)
     result = _polygons(points, ring)
     return _clip(result, bounds2d)
@@ -273,23 +271,24 @@ class _Grid:
     def contours(self, band: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Closed directed contour segments of the refined cells.
 
-        Returns ``(start, end, point)`` sorted by ``start``: for every segment the id of
-        the edge it starts on, of the one it ends on (each crossed edge starts one segment
-        and ends one), and where the field crosses its start edge. Edge ids:
+        Returns ``(start, end)`` sorted by ``start``: for every segment the id of the edge
+        it starts on and of the one it ends on (each crossed edge starts one segment and
+        ends one). Edge ids:
         ``2 * key(i, j)`` for the edge from node (i, j) to (i+1, j), plus 1 for the one
         from (i, j) to (i, j+1).
         """
         refined = np.zeros_like(band)
         new = band
-        parts = []
+        starts, ends = [], []
         while new.any():
-            parts.append(self._segments(*self.refine(new)))
+            start, end = self._segments(*self.refine(new))
+            starts.append(start)
+            ends.append(end)
             refined |= new
-            start, end = (np.concatenate([p[k] for p in parts]) for k in (0, 1))
+            start, end = np.concatenate(starts), np.concatenate(ends)
             new = self._cells_beside(np.setxor1d(start, end), band.shape) & ~refined
-        start, end, point = (np.concatenate([p[k] for p in parts]) for k in (0, 1, 2))
         order = np.argsort(start)
-        return start[order], end[order], point[order]
+        return start[order], end[order]
 
     def _cells_beside(self, edges: np.ndarray, shape) -> np.ndarray:
         """Coarse cells on either side of the fine ``edges``."""
@@ -303,17 +302,13 @@ class _Grid:
 
     def _segments(self, ci: np.ndarray, cj: np.ndarray):
         """Marching-squares segments of the fine cells of the refined coarse cells
-        ``(ci, cj)``: start edges, end edges, start points."""
+        ``(ci, cj)``: start edges and end edges."""
         r = _REFINE
-        block = self.blocks(ci, cj)
-        corners = np.stack([block[:, :-1, :-1], block[:, :-1, 1:], block[:, 1:, 1:], block[:, 1:, :-1]]).reshape(4, -1)
-        offset = np.arange(r)
-        i = (ci[:, None, None] * r + offset[None, None, :] + 0 * offset[None, :, None]).ravel()
-        j = (cj[:, None, None] * r + offset[None, :, None] + 0 * offset[None, None, :]).ravel()
-        inside = corners <= 0
-        case = inside[0] | (inside[1] << 1) | (inside[2] << 2) | (inside[3] << 3)
-        crossed = (case > 0) & (case < 15)
-        i, j, case, corners = i[crossed], j[crossed], case[crossed].astype(np.int64), corners[:, crossed]
+        inside = self.blocks(ci, cj) <= 0
+        code = (inside[:, :-1, :-1] | (inside[:, :-1, 1:] << 1) | (inside[:, 1:, 1:] << 2) | (inside[:, 1:, :-1] << 3))
+        cell_of, b, a = np.nonzero((code > 0) & (code < 15))
+        case = code[cell_of, b, a].astype(np.int64)
+        i, j = ci[cell_of] * r + a, cj[cell_of] * r + b
         saddle = np.flatnonzero((case == 5) | (case == 10))
         if saddle.size:
             centre = self.field(self.x0 + self.cell * (i[saddle] + 0.5), self.y0 + self.cell * (j[saddle] + 0.5))
@@ -326,21 +321,22 @@ class _Grid:
         owner = np.repeat(np.arange(case.size), n)
         rank = np.arange(owner.size) - np.repeat(np.cumsum(n) - n, n)
         first, last = _SEGMENT_PAIRS[_SEGMENT_FIRST[case][owner] + rank].T
-        # the crossing on edge e runs from corner _EDGE_FROM[e] to corner _EDGE_TO[e] (+x or +y)
-        fa, fb = corners[_EDGE_FROM[first], owner], corners[_EDGE_TO[first], owner]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            t = np.clip(fa / (fa - fb), 0.0, 1.0)
-        t = np.where(np.isfinite(t), t, 0.5)
-        vertical = first % 2
-        x = self.x0 + self.cell * (i[owner] + _EDGE_DX[first] + t * (1 - vertical))
-        y = self.y0 + self.cell * (j[owner] + _EDGE_DY[first] + t * vertical)
-        return edge_ids[first, owner], edge_ids[last, owner], np.column_stack([x, y])
+        return edge_ids[first, owner], edge_ids[last, owner]
 
     def fixed(self, edges: np.ndarray) -> np.ndarray:
         """Whether each edge touches an outer node (its crossing is outside the box)."""
         node, vertical = edges // 2, edges % 2
         i, j = node % (self.nx + 1), node // (self.nx + 1)
         return self._border(i, j) | self._border(i + 1 - vertical, j + vertical)
+
+    def edge_ends(self, edges: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Both nodes of each edge and their values: ``(p0, p1, f0, f1)``, points ``(E, 2)``."""
+        node, vertical = edges // 2, edges % 2
+        i, j = node % (self.nx + 1), node // (self.nx + 1)
+        i1, j1 = i + 1 - vertical, j + vertical
+        p0 = np.column_stack([self.x0 + self.cell * i, self.y0 + self.cell * j])
+        p1 = np.column_stack([self.x0 + self.cell * i1, self.y0 + self.cell * j1])
+        return p0, p1, self.at(i, j), self.at(i1, j1)
 
 
 def _neighbourhood_max(values: np.ndarray) -> np.ndarray:
@@ -386,33 +382,69 @@ def _rings(starts: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return np.array(order, dtype=np.int64), np.repeat(np.arange(len(ring_sizes)), ring_sizes)
 
 
-def _project(field, points: np.ndarray, step_limit: float, cell: float) -> np.ndarray:
-    """Newton steps ``p -= f(p) grad f / |grad f|^2`` (forward differences), each step at most ``step_limit``.
-
-    A point stops once its step is below :data:`_CONVERGED` ``cell`` (Newton converges
-    quadratically: the next step would be smaller still).
-    """
-    h = cell * 1e-5
-    p = points.copy()
-    active = np.arange(len(p))
-    for _ in range(_NEWTON_STEPS):
-        if not active.size:
+def _root_on_edges(field, p0, p1, f0, f1, cell: float) -> np.ndarray:
+    """Where the field crosses zero on each segment ``p0 -> p1`` (values ``f0``, ``f1`` of
+    opposite sides of zero): regula falsi with the Illinois rule, ending once a step is
+    below :data:`_CONVERGED` ``cell``. The root stays on its cell edge, so the rings keep
+    the topology marching squares gave them."""
+    first_inside = f0 <= 0
+    lo_x, lo_y = (np.where(first_inside, p0[:, k], p1[:, k]) for k in (0, 1))  # the f <= 0 end
+    hi_x, hi_y = (np.where(first_inside, p1[:, k], p0[:, k]) for k in (0, 1))
+    f_lo, f_hi = np.where(first_inside, f0, f1), np.where(first_inside, f1, f0)
+    x, y = _falsi(lo_x, lo_y, hi_x, hi_y, f_lo, f_hi)
+    out = np.column_stack([x, y])
+    index = np.flatnonzero(np.isfinite(f_lo) & np.isfinite(f_hi))
+    lo_x, lo_y, hi_x, hi_y, f_lo, f_hi, x, y = (v[index] for v in (lo_x, lo_y, hi_x, hi_y, f_lo, f_hi, x, y))
+    kept = np.zeros(index.size, dtype=np.int8)  # the end kept at the last step: -1 low, 1 high
+    for _ in range(_ROOT_STEPS):
+        if not index.size:
             break
-        x, y = p[active, 0], p[active, 1]
-        stacked_x = np.concatenate([x, x + h, x])
-        stacked_y = np.concatenate([y, y, y + h])
-        f0, fx, fy = np.asarray(field(stacked_x, stacked_y), dtype=float).reshape(3, -1)
-        gx, gy = (fx - f0) / h, (fy - f0) / h
-        norm2 = gx * gx + gy * gy
-        with np.errstate(invalid="ignore", divide="ignore"):
-            ratio = np.where(norm2 > 1e-12, f0 / norm2, 0.0)
-        ratio = np.where(np.isfinite(ratio), ratio, 0.0)
-        length = np.abs(ratio) * np.sqrt(norm2)
-        scale = ratio * np.minimum(1.0, step_limit / np.maximum(length, 1e-300))
-        p[active, 0] -= scale * gx
-        p[active, 1] -= scale * gy
-        active = active[~(length <= _CONVERGED * cell)]
-    return p
+        value = np.asarray(field(x, y), dtype=float)
+        inside = ~(value > 0)
+        lo_x, lo_y, f_lo = np.where(inside, x, lo_x), np.where(inside, y, lo_y), np.where(inside, value, f_lo)
+        hi_x, hi_y, f_hi = np.where(inside, hi_x, x), np.where(inside, hi_y, y), np.where(inside, f_hi, value)
+        f_hi = np.where(inside & (kept == 1), f_hi / 2, f_hi)  # Illinois: an end kept twice weighs half
+        f_lo = np.where(~inside & (kept == -1), f_lo / 2, f_lo)
+        kept = np.where(inside, 1, -1).astype(np.int8)
+        new_x, new_y = _falsi(lo_x, lo_y, hi_x, hi_y, f_lo, f_hi)
+        moving = (np.maximum(np.abs(new_x - x), np.abs(new_y - y)) > _CONVERGED * cell) & (value != 0)
+        out[index, 0], out[index, 1] = new_x, new_y
+        index = index[moving]
+        lo_x, lo_y, hi_x, hi_y, f_lo, f_hi, kept = (v[moving] for v in (lo_x, lo_y, hi_x, hi_y, f_lo, f_hi, kept))
+        x, y = new_x[moving], new_y[moving]
+    return out
+
+
+def _falsi(lo_x, lo_y, hi_x, hi_y, f_lo, f_hi):
+    """The point where the line through the ends' values crosses zero (the middle when
+    that is undefined)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = np.clip(np.nan_to_num(f_lo / (f_lo - f_hi), nan=0.5), 0.0, 1.0)
+    return lo_x + t * (hi_x - lo_x), lo_y + t * (hi_y - lo_y)
+
+
+def _midpoints(field, pa: np.ndarray, pb: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray]:
+    """The zero of the field on the perpendicular bisector of each chord ``pa -> pb``,
+    within half the chord's length of its midpoint (so that split edges stay near their
+    chord and rings do not cross), and whether one was found there."""
+    mid = (pa + pb) / 2
+    chord = pb - pa
+    reach = np.column_stack([-chord[:, 1], chord[:, 0]]) / 2
+    ends = np.concatenate([mid + reach, mid - reach])
+    values = np.asarray(field(np.concatenate([mid[:, 0], ends[:, 0]]), np.concatenate([mid[:, 1], ends[:, 1]])), dtype=float)
+    fm, f_plus, f_minus = values.reshape(3, -1)
+    inside = fm <= 0
+    crosses_plus = inside != (f_plus <= 0)
+    crosses_minus = inside != (f_minus <= 0)
+    use_plus = crosses_plus & (~crosses_minus | (np.abs(f_plus) <= np.abs(f_minus)))
+    found = (crosses_plus | crosses_minus) & np.isfinite(fm)
+    out = mid.copy()
+    pick = np.flatnonzero(found)
+    if pick.size:
+        end = np.where(use_plus[pick, None], mid[pick] + reach[pick], mid[pick] - reach[pick])
+        f_end = np.where(use_plus[pick], f_plus[pick], f_minus[pick])
+        out[pick] = _root_on_edges(field, mid[pick], end, fm[pick], f_end, cell)
+    return out, found
 
 
 def _subdivide(field, points, fixed, ring, tolerance, cell):
@@ -434,10 +466,8 @@ def _subdivide(field, points, fixed, ring, tolerance, cell):
     for _ in range(_MAX_SUBDIVISION_ROUNDS):
         if not a.size:
             break
-        pa, pb = _take(all_points, a), _take(all_points, b)
-        mid = (pa + pb) / 2
-        projected = _project(field, mid, cell, cell)
-        far = np.linalg.norm(projected - mid, axis=1) > tolerance
+        projected, found = _midpoints(field, _take(all_points, a), _take(all_points, b), cell)
+        far = found & (np.linalg.norm(projected - (_take(all_points, a) + _take(all_points, b)) / 2, axis=1) > tolerance)
         if not far.any():
             break
         a, b = a[far], b[far]
