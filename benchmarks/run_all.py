@@ -371,6 +371,9 @@ def print_comparison(workdir: Path, jobs: int, repeat: int) -> None:
         runs[name] = run
         ratio = "" if name in ("fgslice", "+ thumbnails") or "fgslice" not in runs else \
             f"  fgslice/{name}: wall {runs['fgslice'].wall_s / run.wall_s:.2f}, cpu {runs['fgslice'].cpu_s / run.cpu_s:.2f}"
+        if ratio and "+ thumbnails" in runs:
+            thumbs = runs["+ thumbnails"]
+            ratio += f"; with thumbnails: wall {thumbs.wall_s / run.wall_s:.2f}, cpu {thumbs.cpu_s / run.cpu_s:.2f}"
         print(f"  {name:13s} wall {run.wall_s:7.2f} s  cpu {run.cpu_s:7.2f} s  peak {run.peak_mb:6.0f} MB{ratio}", flush=True)
 
 
