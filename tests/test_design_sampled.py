@@ -187,3 +187,10 @@ def test_gyroid_matches_a_fine_grid_reference_and_the_box_exactly(z):
     corners = shapely.points([(-12, -12), (12, -12), (12, 12), (-12, 12)])
     inside_corners = _gyroid(z)(*shapely.get_coordinates(corners).T) < 0
     assert np.array_equal(shapely.intersects(section, corners), inside_corners)
+
+
+def test_a_crossing_through_infinity_is_found_by_bisection():
+    design = load_source('function((-5,-5,-1),(5,5,1), "1/x");')  # inside where x < 0; 1/0 = inf on a node
+    section = design.section(0.0)
+    assert section.is_valid
+    assert section.area == pytest.approx(10 * 5.0, abs=10 * 0.005)  # the 10 mm line within 5 um

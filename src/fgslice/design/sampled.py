@@ -106,7 +106,8 @@ def section_from_sdf(
     Args:
         sdf_xy: the 2D signed field (negative inside), called with two equally shaped
             float arrays of x and y (mm), returning an array of that shape. It need not
-            be a distance, only continuous; NaN counts as outside.
+            be a distance, only continuous (a sign change through an infinite value is
+            located by bisection); NaN counts as outside.
         bounds2d: ``(minx, miny, maxx, maxy)``: the rectangle the region is clipped to (mm).
         cell: fine cell size (mm); sets the smallest feature kept (``cell * sqrt(2)``).
         tolerance: largest distance (mm) between the outline and the zero level at
@@ -393,7 +394,7 @@ def _root_on_edges(field, p0, p1, f0, f1, cell: float) -> np.ndarray:
     f_lo, f_hi = np.where(first_inside, f0, f1), np.where(first_inside, f1, f0)
     x, y = _falsi(lo_x, lo_y, hi_x, hi_y, f_lo, f_hi)
     out = np.column_stack([x, y])
-    index = np.flatnonzero(np.isfinite(f_lo) & np.isfinite(f_hi))
+    index = np.flatnonzero(~np.isnan(f_lo) & ~np.isnan(f_hi))
     lo_x, lo_y, hi_x, hi_y, f_lo, f_hi, x, y = (v[index] for v in (lo_x, lo_y, hi_x, hi_y, f_lo, f_hi, x, y))
     kept = np.zeros(index.size, dtype=np.int8)  # the end kept at the last step: -1 low, 1 high
     for _ in range(_ROOT_STEPS):
@@ -417,9 +418,10 @@ def _root_on_edges(field, p0, p1, f0, f1, cell: float) -> np.ndarray:
 
 def _falsi(lo_x, lo_y, hi_x, hi_y, f_lo, f_hi):
     """The point where the line through the ends' values crosses zero (the middle when
-    that is undefined)."""
+    an end's value is infinite or NaN: bisection)."""
     with np.errstate(invalid="ignore", divide="ignore"):
-        t = np.clip(np.nan_to_num(f_lo / (f_lo - f_hi), nan=0.5), 0.0, 1.0)
+        t = np.where(np.isfinite(f_lo) & np.isfinite(f_hi), f_lo / (f_lo - f_hi), 0.5)
+        t = np.clip(np.nan_to_num(t, nan=0.5), 0.0, 1.0)
     return lo_x + t * (hi_x - lo_x), lo_y + t * (hi_y - lo_y)
 
 
