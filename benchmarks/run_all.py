@@ -15,7 +15,10 @@ Then ``speedup``: the vase with ``--jobs 1`` and ``--jobs 2`` (target >= 1.6), w
 machine's own ceilings for two processes (two ``--jobs 1`` slices of the vase at once,
 and a fixed pure-Python loop alone and as two copies at once), and
 ``compare``: a single-material 3DBenchy (0.2 mm layers, 2 walls, 15 % infill) with
-fgslice, ``prusa-slicer`` and ``CuraEngine`` (each skipped with a note when not installed).
+fgslice, ``prusa-slicer`` and ``CuraEngine`` (each skipped with a note when not installed),
+and ``implicit``: parts without exact sections against the exact vase of the same run (a
+function vase of the vase's size and settings, a gyroid block, three meshes side by side),
+taken in turns, with their ratio to the exact vase and their targets.
 
 Before timing, the installed ``fgslice`` package is byte-compiled (``compileall``), as
 ``pip install`` does for a regular install: an editable checkout run with
@@ -90,7 +93,7 @@ ROWS = (
     Row("palette_s2_c36", EXAMPLES / "palette.vcad", PALETTE_S2 + ("--colors", "36"), 285, PALETTE_TARGET_S),
     Row("palette_s2_c48", EXAMPLES / "palette.vcad", PALETTE_S2 + ("--colors", "48"), 424, PALETTE_TARGET_S, quick=True),
 )
-EXTRA = ("speedup", "compare")
+EXTRA = ("speedup", "compare", "implicit")
 STAGES = (
     ("load design", ("language.py", "load_design")),
     ("thumbnails", ("thumbnails.py", "render_thumbnails")),
@@ -368,7 +371,87 @@ def print_comparison(workdir: Path, jobs: int, repeat: int) -> None:
         runs[name] = run
         ratio = "" if name in ("fgslice", "+ thumbnails") or "fgslice" not in runs else \
             f"  fgslice/{name}: wall {runs['fgslice'].wall_s / run.wall_s:.2f}, cpu {runs['fgslice'].cpu_s / run.cpu_s:.2f}"
+        if ratio and "+ thumbnails" in runs:
+            thumbs = runs["+ thumbnails"]
+            ratio += f"; with thumbnails: wall {thumbs.wall_s / run.wall_s:.2f}, cpu {thumbs.cpu_s / run.cpu_s:.2f}"
         print(f"  {name:13s} wall {run.wall_s:7.2f} s  cpu {run.cpu_s:7.2f} s  peak {run.peak_mb:6.0f} MB{ratio}", flush=True)
+
+
+FUNCTION_VASE = """fgrade(["(1+sin(0.025*x+0.0375*y)*cos(0.0375*x-0.025*y))/2",
+        "1-(1+sin(0.025*x+0.0375*y)*cos(0.0375*x-0.025*y))/2"], ["yellow", "blue"]) {
+    function((-68,-88,-50), (68,88,50), "sqrt((x/67.5)^2 + (y/87.5)^2) - (0.8 + 0.2*cos(z/16))");
+}
+"""
+"""The vase's size and gradient as a ``function`` (no exact section): 500 layers."""
+
+GYROID = """fgrade(["(z+10)/20", "1-(z+10)/20"], ["red", "blue"]) {
+    function((-20,-20,-10), (20,20,10), "sin(x)*cos(y)+sin(y)*cos(z)+sin(z)*cos(x)");
+}
+"""
+"""A gyroid block 40 x 40 x 20 mm graded along z."""
+
+THREE_MESHES = """union() {
+    mesh("mesh_a.stl", "red");
+    mesh("mesh_b.stl", "green");
+    mesh("mesh_c.stl", "blue");
+}
+"""
+"""Three 40 x 20 x 2 mm boxes side by side (written by :func:`implicit_rows`), one material each."""
+
+
+@dataclass(frozen=True)
+class Implicit:
+    """One ``implicit`` row: the design's text, fgslice options, and targets (wall s, and
+    ratio to the exact vase of the same run; None: no ratio target)."""
+
+    name: str
+    text: str
+    args: tuple[str, ...]
+    target_s: float
+    target_ratio: float | None = None
+
+
+IMPLICIT = (
+    Implicit("function_vase", FUNCTION_VASE, VASE_ARGS, VASE_TARGET_S, 1.5),
+    Implicit("gyroid", GYROID, ("--strategy", "2", "--colors", "8", "--layer-height", "0.2"), 3.0),
+    Implicit("three_meshes", THREE_MESHES, ("--strategy", "1", "--layer-height", "0.2", "--set", "channels=3"), 1.0),
+)
+
+
+def implicit_rows(workdir: Path) -> list[tuple[str, Path, tuple[str, ...], float, float | None]]:
+    """The exact vase, then every :data:`IMPLICIT` design written to ``workdir`` (with its
+    meshes): ``(name, design, args, target s, target ratio)``."""
+    import trimesh
+
+    for k, name in enumerate("abc"):
+        box = trimesh.creation.box((40, 20, 2))
+        box.apply_translation((0, 25 * k, 1))
+        box.export(workdir / f"mesh_{name}.stl")
+    rows = [("vase", ROWS[0].design, ROWS[0].args, ROWS[0].target_s, None)]
+    for row in IMPLICIT:
+        design = workdir / f"{row.name}.vcad"
+        design.write_text(row.text)
+        rows.append((row.name, design, row.args, row.target_s, row.target_ratio))
+    return rows
+
+
+def print_implicit(workdir: Path, jobs: int, repeat: int) -> None:
+    """The :func:`implicit_rows` taken in turns (``repeat`` rounds); medians, and each
+    row's wall and CPU time over the exact vase's of the same rounds."""
+    rows = implicit_rows(workdir)
+    rounds = [[measure(fgslice_cmd(design, args, workdir / f"{name}.gcode", jobs), ROOT) for name, design, args, *_ in rows]
+              for _ in range(repeat)]
+    print(f"\nparts without exact sections, --jobs {jobs}{_median_note(repeat)}, taken in turns with the exact vase")
+    vase = median_run([(r[0], {}) for r in rounds])[0]
+    for i, (name, _, _, target_s, target_ratio) in enumerate(rows):
+        run = median_run([(r[i], {}) for r in rounds])[0]
+        if run.returncode != 0:
+            print(f"  {name:14s} failed (exit {run.returncode}): {run.stderr.strip().splitlines()[-1:]}")
+            continue
+        ratio = f"  /vase: wall {run.wall_s / vase.wall_s:5.2f}, cpu {run.cpu_s / vase.cpu_s:5.2f}" if i else ""
+        target = f"  target {target_s:.1f} s" + (f", <= {target_ratio}x the vase" if target_ratio else "")
+        print(f"  {name:14s} wall {run.wall_s:7.2f} s  cpu {run.cpu_s:7.2f} s  peak {run.peak_mb:6.0f} MB{ratio}{target}",
+              flush=True)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -414,6 +497,8 @@ def main(argv: list[str] | None = None) -> None:
             print_speedup(workdir, args.repeat)
         if "compare" in wanted:
             print_comparison(workdir, args.jobs, args.repeat)
+        if "implicit" in wanted:
+            print_implicit(workdir, args.jobs, args.repeat)
     print(f"\nmachine reference at the end: {machine_reference():.2f} s")
 
 

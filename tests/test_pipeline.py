@@ -213,3 +213,36 @@ def test_a_fault_in_the_last_line_is_found_by_the_process_that_follows_the_file(
     with pytest.raises(SliceError, match="fails verification") as info:
         slice_to_gcode(api.design(GRADIENT_X), settings, out, jobs=2)
     assert "999" in str(info.value) and not out.exists() and not list(tmp_path.iterdir())
+
+
+def test_thumbnail_process_shares_the_mesh_tables(tmp_path):
+    """With workers, a mesh's whole section tables exist before the thumbnail process
+    forks (it would otherwise build its own copy), and the file is the one ``--jobs 1``
+    writes."""
+    from datetime import datetime, timezone
+
+    import trimesh
+
+    from fgslice.design.language import parse_design
+    from fgslice.errors import FieldError
+    from fgslice.preview.thumbnails import render_thumbnails
+
+    box = trimesh.creation.box((20, 10, 3))
+    box.apply_translation((0, 0, 1.5))
+    box.export(tmp_path / "box.stl")
+    outputs = []
+    for jobs in (2, 1):
+        design = parse_design('mesh("box.stl");', file=tmp_path / "part.vcad")
+        settings = load_settings(None, {"strategy": "1", "colors": "1"})
+        geometry = design.meshes[0].geometry
+
+        def render():
+            if jobs > 1 and "_whole" not in vars(geometry):
+                raise FieldError("the thumbnail process had to build the mesh's tables")
+            return render_thumbnails(design, settings, [(16, 16)])
+
+        out = tmp_path / f"part{jobs}.gcode"
+        slice_to_gcode(design, settings, out, jobs=jobs, thumbnails=render, stamp=datetime(2026, 1, 1, tzinfo=timezone.utc))
+        outputs.append(out.read_bytes())
+    assert outputs[0] == outputs[1]
+    assert b"; thumbnail begin 16x16" in outputs[0]

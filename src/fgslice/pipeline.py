@@ -298,7 +298,9 @@ def slice_to_gcode(
     attributes = checked_attributes(design, settings)
     job = SliceJob(design, settings, palette, placement, layers, bed_center,
                    grading=SegmentGrading.of(attributes, placement.offset, settings))
-    if settings.strategy == 2:  # one plane per layer task (strategy 1 sections batches of layers)
+    if settings.strategy == 2 or (callable(thumbnails) and (jobs > 1 or scheduler)):
+        # one plane per layer task (strategy 1 sections batches of layers), or a thumbnail
+        # process about to fork, which would build a mesh's whole tables again
         design.prepare_sections()
     _prepare_for_workers()
 
