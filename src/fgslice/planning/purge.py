@@ -553,48 +553,6 @@ def _fitting_alternatives(part_footprint: shapely.Geometry, changes: int, n_laye
     return " or ".join(found) if found else "no purge_tolerance or smaller palette fits"
 
 
-def _tower_size(length: float, changes: int, w: float, aspect: float) -> tuple[float, float, int, int]:
-    """(width, depth, rows per change, rows) of a tower with ``width / depth >= aspect``.
-
-    Rows run along X at spacing ``w`` inside a one-bead perimeter; a change owns enough
-    rows for ``length`` mm of back-and-forth line (row length plus ``w`` per turn).
-    """
-    run = max(math.sqrt(changes * length * w * aspect) - 2 * w, MIN_TOWER_SIDE_MM - 2 * w)
-    while True:
-        per_change = math.ceil((length + w) / (run + w))
-        rows = max(changes * per_change, math.ceil(MIN_TOWER_SIDE_MM / w) - 1)
-        width, depth = run + 2 * w, (rows + 1) * w
-        if width >= aspect * depth:
-            return width, depth, per_change, rows
-        run += w
-
-
-def _candidate_centers(bounds, width: float, depth: float, bed: tuple[float, float]) -> np.ndarray:
-    """Tower centers to try: beside the keep-out box (right, left, behind, front), then a
-    grid over the bed ordered by distance to the part."""
-    minx, miny, maxx, maxy = bounds
-    cx, cy = (minx + maxx) / 2, (miny + maxy) / 2
-    gap = 1e-3  # touching the keep-out counts as overlapping
-    sides = [(maxx + width / 2 + gap, cy), (minx - width / 2 - gap, cy),
-             (cx, maxy + depth / 2 + gap), (cx, miny - depth / 2 - gap)]
-    step = max(2.0, min(width, depth) / 4)
-    gx, gy = np.meshgrid(np.arange(width / 2, bed[0] - width / 2 + 1e-9, step),
-                         np.arange(depth / 2, bed[1] - depth / 2 + 1e-9, step))
-    grid = np.c_[gx.ravel(), gy.ravel()]
-    grid = grid[np.argsort(np.hypot(grid[:, 0] - cx, grid[:, 1] - cy), kind="stable")]
-    return np.vstack([np.array(sides), grid])
-
-
-def _fits(centers: np.ndarray, width: float, depth: float, keepout: shapely.Geometry, bed) -> np.ndarray:
-    """Which candidate towers lie on the bed and clear of ``keepout``."""
-    x0, y0 = centers[:, 0] - width / 2, centers[:, 1] - depth / 2
-    x1, y1 = x0 + width, y0 + depth
-    on_bed = (x0 >= 0) & (y0 >= 0) & (x1 <= bed[0]) & (y1 <= bed[1])
-    ok = on_bed.copy()
-    ok[on_bed] = ~shapely.intersects(shapely.box(x0[on_bed], y0[on_bed], x1[on_bed], y1[on_bed]), keepout)
-    return ok
-
-
 def _unsettled_mm3(since: float, settings: Settings) -> float:
     """Extra purge (mm^3) after a change made ``since`` mm^3 after the previous one, when
     the sparse infill takes the purge.
