@@ -93,4 +93,4 @@ def test_three_material_thresh_boundaries_are_printed_whole(tmp_path, palette, c
     design = api.design(tree)
     settings, program, stats = _slice(design, tmp_path, colors=colors, channels=3, palette=palette)
     assert _extruded_volume(program, settings) == pytest.approx(_part_volume(design, settings, program), rel=0.03)
-    assert stats["reassigned_mm2"] > 0
+    assert stats["uncovered_mm2"] + stats["reassigned_mm2"] > 0  # there were bands narrower than a bead

@@ -8,7 +8,7 @@ from fgslice.settings import Settings
 from fgslice.slicing.layers import LayerRegions
 from fgslice.toolpaths import strategy2
 from fgslice.toolpaths.paths import bead_area
-from fgslice.toolpaths.slivers import give_slivers
+from fgslice.toolpaths.slivers import MIN_SLIVER_SHARE, give_slivers
 
 W, H = 0.4, 0.2
 
@@ -105,3 +105,30 @@ def test_a_tail_hanging_from_its_own_face_only_stays_with_it():
     outline = shapely.MultiPolygon([body.union(other)])
     lp = strategy2.layer_paths(LayerRegions(0, H, H, outline, faces), Settings(colors=2))
     assert lp.uncovered_mm2 == pytest.approx(3.0, rel=0.05)
+
+
+def test_a_layer_whose_slivers_are_under_the_share_keeps_them():
+    """A 0.25 mm ring of color 1 between a hub and a disc of 60 mm: 0.1 % of the area,
+    under MIN_SLIVER_SHARE, so no overlay runs and every face stays as it was; the same
+    ring on a 10 mm disc (0.6 mm^2 of 314, 2 %) is handed over."""
+    hub, ring, rest = shapely.MultiPolygon([disc(4)]), disc(4.25).difference(disc(4)), disc(60).difference(disc(4.25))
+    faces = (hub, shapely.MultiPolygon([ring]), shapely.MultiPolygon([rest]))
+    assert ring.area < MIN_SLIVER_SHARE * disc(60).area
+    given, area = give_slivers(faces, W)
+    assert area == 0.0 and all(a is b for a, b in zip(given, faces))
+    small = ring_faces()
+    assert small[1].area > MIN_SLIVER_SHARE * disc(10).area
+    assert give_slivers(small, W)[1] > 0
+
+
+def test_a_receiver_touching_the_window_only_along_a_line():
+    """A 0.2 mm strip of color 1 between color 0 and a 0.8 mm strip of color 2, with
+    color 0 again right behind that strip: color 0's second piece meets the sliver's 2 w
+    window only along its edge (the clip is a line, which the overlays must not see)."""
+    box = shapely.box
+    faces = (shapely.MultiPolygon([box(0, 0, 5, 10), box(6.0, 0, 11, 10)]), shapely.MultiPolygon([box(5, 0, 5.2, 10)]),
+             shapely.MultiPolygon([box(5.2, 0, 6.0, 10)]))
+    given, area = give_slivers(faces, W)
+    assert area == pytest.approx(2.0, rel=1e-6)
+    assert given[1].is_empty
+    assert shapely.union_all(given).symmetric_difference(box(0, 0, 11, 10)).area < 1e-4
