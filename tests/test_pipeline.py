@@ -102,8 +102,8 @@ def test_parallel_output_is_byte_identical(tmp_path, monkeypatch, strategy):
     design = api.design(GRADIENT_X)
     settings = load_settings(None, {"colors": "4", "strategy": strategy, "walls": "2", "thumbnails": "16x16,60x40"})
     one, two = tmp_path / "one.gcode", tmp_path / "two.gcode"
-    slice_to_gcode(design, settings, one, jobs=1, thumbnails=tuple(render_thumbnails(design, settings)))
-    slice_to_gcode(design, settings, two, jobs=2, thumbnails=lambda: render_thumbnails(design, settings))
+    slice_to_gcode(design, settings, one, jobs=1, thumbnails=lambda layers: render_thumbnails(design, settings, layers=layers))
+    slice_to_gcode(design, settings, two, jobs=2, thumbnails=lambda layers: render_thumbnails(design, settings, layers=layers))
     assert b"; thumbnail begin 60x40" in two.read_bytes()
     assert one.read_bytes() == two.read_bytes()
 
@@ -134,7 +134,7 @@ def test_parallel_output_of_a_mesh_is_byte_identical(tmp_path, monkeypatch, stra
     for out, jobs, serial_work_s in ((one, 1, 60.0), (two, 2, 60.0), (three, 2, 0.0)):
         monkeypatch.setattr(executor, "SERIAL_WORK_S", serial_work_s)
         design = api.design(api.fgrade(["x/40 + 0.5", "0.5 - x/40"], ["blue", "yellow"], api.mesh(path)))
-        thumbnails = (lambda d=design: render_thumbnails(d, settings)) if jobs > 1 else tuple(render_thumbnails(design, settings))
+        thumbnails = lambda layers, d=design: render_thumbnails(d, settings, layers=layers)  # noqa: E731
         slice_to_gcode(design, settings, out, jobs=jobs, thumbnails=thumbnails)
     program = read_gcode(two)
     assert len(program.layer_z) > 30
@@ -148,7 +148,7 @@ def test_failing_thumbnails_stop_the_slice_and_write_nothing(tmp_path, jobs):
     caller as itself, and no file is left behind."""
     from fgslice.errors import FieldError
 
-    def render():
+    def render(layers):
         raise FieldError("the field is NaN at (1, 2, 3)", hint="check the expression")
 
     design = api.design(GRADIENT_X)
@@ -215,10 +215,10 @@ def test_a_fault_in_the_last_line_is_found_by_the_process_that_follows_the_file(
     assert "999" in str(info.value) and not out.exists() and not list(tmp_path.iterdir())
 
 
-def test_thumbnail_process_shares_the_mesh_tables(tmp_path):
-    """With workers, a mesh's whole section tables exist before the thumbnail process
-    forks (it would otherwise build its own copy), and the file is the one ``--jobs 1``
-    writes."""
+def test_thumbnails_of_a_mesh_are_drawn_from_the_layer_outlines(tmp_path):
+    """Strategy 1 draws a mesh's thumbnails from the layers it sliced: neither the mesh's
+    whole section tables nor its 3-D signed distance are ever built, in the thumbnail
+    process (workers) or here, and the file is the one ``--jobs 1`` writes."""
     from datetime import datetime, timezone
 
     import trimesh
@@ -236,13 +236,15 @@ def test_thumbnail_process_shares_the_mesh_tables(tmp_path):
         settings = load_settings(None, {"strategy": "1", "colors": "1"})
         geometry = design.meshes[0].geometry
 
-        def render():
-            if jobs > 1 and "_whole" not in vars(geometry):
-                raise FieldError("the thumbnail process had to build the mesh's tables")
-            return render_thumbnails(design, settings, [(16, 16)])
+        def render(layers):
+            thumbs = render_thumbnails(design, settings, [(16, 16)], layers)
+            built = {"_whole", "_distance", "_ray_counters"} & set(vars(geometry))
+            if built:
+                raise FieldError(f"the thumbnails built the mesh's {sorted(built)}")
+            return thumbs
 
         out = tmp_path / f"part{jobs}.gcode"
         slice_to_gcode(design, settings, out, jobs=jobs, thumbnails=render, stamp=datetime(2026, 1, 1, tzinfo=timezone.utc))
         outputs.append(out.read_bytes())
+        assert not {"_whole", "_distance", "_ray_counters"} & set(vars(geometry))
     assert outputs[0] == outputs[1]
-    assert b"; thumbnail begin 16x16" in outputs[0]

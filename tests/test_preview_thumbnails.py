@@ -134,3 +134,44 @@ def test_thumbnails_do_not_depend_on_how_fast_the_design_evaluates():
             return GRADIENT.sdf(x, y, z)
 
     assert thumbnail_png(Slow(), 48, 32) == thumbnail_png(GRADIENT, 48, 32)
+
+
+def test_thumbnails_of_meshes_drawn_from_the_slice_layers(tmp_path):
+    """Strategy 1 hands the thumbnails its layer outlines: three meshes of one material
+    each are drawn from them with the silhouette and the colors of a render from the
+    design's own sections, each body in its material's color, without building any
+    mesh's 3-D distance or whole tables."""
+    import trimesh
+
+    from fgslice.design.language import parse_design
+    from fgslice.preview.thumbnails import _Scene, render_image
+
+    for k, name in enumerate("abc"):
+        box = trimesh.creation.box((40, 20, 4))
+        box.apply_translation((0, 25 * k, 2))
+        box.export(tmp_path / f"mesh_{name}.stl")
+    text = 'union() { mesh("mesh_a.stl", "red"); mesh("mesh_b.stl", "green"); mesh("mesh_c.stl", "blue"); }'
+    design = parse_design(text, file=tmp_path / "part.vcad")
+    settings = load_settings(None, {"strategy": "1", "channels": "3", "skirt_loops": "0", "thumbnails": "220x124"})
+    seen = {}
+
+    def render(layers):
+        seen["image"] = render_image(design, 220, 124, _Scene(design, layers))
+        return render_thumbnails(design, settings, layers=layers)
+
+    out = tmp_path / "part.gcode"
+    slice_to_gcode(design, settings, out, jobs=1, thumbnails=render)
+    built = [n for m in design.meshes for n in ("_whole", "_distance", "_ray_counters") if n in vars(m.geometry)]
+    assert built == []
+    assert "; thumbnail begin 220x124" in out.read_text()
+
+    drawn = seen["image"]
+    reference = render_image(parse_design(text, file=tmp_path / "part.vcad"), 220, 124)  # from sections, exact bodies
+    a, b = drawn[..., 3] > 0.5, reference[..., 3] > 0.5
+    assert a.sum() > 3000
+    assert (a == b).mean() > 0.98
+    both = a & b
+    assert np.abs(drawn[both][:, :3] - reference[both][:, :3]).max(axis=1).mean() < 0.05
+    # every body shows in its own color: the pixel's strongest channel is its material's
+    strongest = np.argmax(drawn[a][:, :3], axis=1)
+    assert all((strongest == channel).mean() > 0.2 for channel in range(3))

@@ -94,7 +94,7 @@ def slice_command(design, output, profile, strategy, colors, layer_height, sets,
     with _progress("slicing") as progress:
         result = slice_to_gcode(
             loaded, settings, output, jobs=jobs, scheduler=scheduler, comments=comments,
-            thumbnails=(lambda: render_thumbnails(loaded, settings, sizes)) if sizes else (),
+            thumbnails=(lambda layers: render_thumbnails(loaded, settings, sizes, layers)) if sizes else (),
             progress=progress,
         )
     s = result.stats

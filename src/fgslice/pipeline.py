@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import importlib
 import itertools
 import os
@@ -52,6 +53,7 @@ from fgslice.planning.plan import LayerPlan
 from fgslice.planning.purge import PurgeStats, PurgeTower, insert_purges
 from fgslice.planning.purge_size import PurgeSizer
 from fgslice.planning.repeats import RepeatedLayers
+from fgslice.preview.thumbnails import LayerOutlines
 from fgslice.settings import Settings
 from fgslice.slicing.field import BedField
 from fgslice.slicing.layers import LayerRegions, Placement
@@ -259,7 +261,7 @@ def slice_to_gcode(
     jobs: int | None = None,
     scheduler: str | None = None,
     comments: dict[str, str] | None = None,
-    thumbnails: Thumbnails | Callable[[], Thumbnails] = (),
+    thumbnails: Thumbnails | Callable[[LayerOutlines | None], Thumbnails] = (),
     progress: Callable[[int, int], None] | None = None,
     verify: bool = True,
     stamp: datetime | None = None,
@@ -274,8 +276,10 @@ def slice_to_gcode(
         scheduler: a Dask scheduler address to run per-layer stages on instead.
         comments: extra ``; key = value`` header lines.
         thumbnails: PNG thumbnails ``(png, width, height)`` to embed, or a function that
-            renders them: with workers it runs in a process of its own alongside the first
-            layers (serial work the other cores would wait for), else here, first.
+            renders them from the slice's layer outlines (strategy 1; None in strategy 2),
+            e.g. ``lambda layers: render_thumbnails(design, settings, layers=layers)``:
+            called once the outlines exist, with workers in a process of its own alongside
+            the first layers (serial work the other cores would wait for), else here.
         progress: called as ``progress(done_layers, total_layers)``.
         verify: check the written file against the machine's limits before keeping it.
         stamp: the time stamp of the G-code's first line (UTC); None: :func:`build_time`.
@@ -298,21 +302,23 @@ def slice_to_gcode(
     attributes = checked_attributes(design, settings)
     job = SliceJob(design, settings, palette, placement, layers, bed_center,
                    grading=SegmentGrading.of(attributes, placement.offset, settings))
-    if settings.strategy == 2 or (callable(thumbnails) and (jobs > 1 or scheduler)):
-        # one plane per layer task (strategy 1 sections batches of layers), or a thumbnail
-        # process about to fork, which would build a mesh's whole tables again
+    if settings.strategy == 2:
+        # one plane per layer task (strategy 1 sections batches of layers); a thumbnail
+        # process forked later shares the tables too
         design.prepare_sections()
     _prepare_for_workers()
 
     with contextlib.ExitStack() as cleanup:
-        if callable(thumbnails):
-            thumbnails = _start_thumbnails(thumbnails, cleanup) if jobs > 1 or scheduler else tuple(thumbnails())
         tower = None
         sizer = PurgeSizer.of(settings, palette.centers)
         if settings.strategy == 1:
             batches = [range(i, min(i + SECTION_BATCH, len(layers))) for i in range(0, len(layers), SECTION_BATCH)]
             job.outlines = list(itertools.chain.from_iterable(
                 map_ordered(_section_task, job, batches, jobs=jobs, scheduler=scheduler, probe=True)))
+        if callable(thumbnails):
+            render = functools.partial(thumbnails, _thumbnail_layers(job) if settings.strategy == 1 else None)
+            thumbnails = _start_thumbnails(render, cleanup) if jobs > 1 or scheduler else tuple(render())
+        if settings.strategy == 1:
             if settings.purge and palette.size > 1:
                 changes = _max_colors_per_layer(job, jobs, scheduler)
                 tower = PurgeTower.plan(_part_footprint(job), settings, max(changes, 1), len(layers), sizer)
@@ -448,6 +454,13 @@ def _prepare_for_workers() -> None:
     imports on first use (about 30 ms per process)."""
     build_number_tables()
     importlib.import_module("numpy.ma")
+
+
+def _thumbnail_layers(job: SliceJob) -> LayerOutlines:
+    """The strategy-1 layer outlines of ``job`` (bed frame) for the thumbnails."""
+    _, tops, heights = np.asarray(job.layers, dtype=float).T
+    return LayerOutlines(mid=tops - heights / 2, height=heights, outlines=job.outlines,
+                         offset=tuple(job.placement.offset))
 
 
 def _start_thumbnails(render: Callable[[], Thumbnails], cleanup: contextlib.ExitStack) -> Callable[[], tuple]:

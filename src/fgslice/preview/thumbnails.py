@@ -6,11 +6,15 @@ material field at the visible surface (mixtures blended as in
 :mod:`fgslice.preview.colors`) and shaded by the surface's slope towards a light over the
 viewer's shoulder; the background is transparent.
 
-Rendering is cheap and does not slice: the signed distance is sampled once on a coarse
-grid over the design's bounds (about :data:`GRID_POINTS` points); every pixel's ray is
-marched through that grid's trilinear interpolation (:func:`_trilinear`)
-by sphere tracing, the first crossing is refined by bisection on the design's exact
-signed distance, and the design's fractions are evaluated once per hit pixel. Features
+Rendering samples a signed distance once on a coarse grid over the design's bounds;
+every pixel's ray is marched through that grid's trilinear interpolation
+(:func:`_trilinear`) by sphere tracing, the first crossing is refined by bisection, and
+the design's fractions are evaluated once per hit pixel. The grid comes from the
+design's exact signed distance where that is cheap (about :data:`GRID_POINTS` points,
+hits refined on it); for designs holding meshes, from what the slice already has when
+it is given (:class:`LayerOutlines`: a strategy-1 slice's layer outlines, inside/outside
+per cell from the nearest layer: no 3-D mesh distance, no whole-mesh tables), else from
+the design's sections. Features
 thinner than the grid spacing (a few mm on a 150 mm part) may be missed; at thumbnail
 sizes they are below a pixel or two anyway.
 
@@ -23,6 +27,8 @@ from __future__ import annotations
 import io
 import math
 import re
+from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 import shapely
@@ -62,6 +68,23 @@ def parse_sizes(text: str) -> list[tuple[int, int]]:
     return sizes
 
 
+@dataclass(frozen=True)
+class LayerOutlines:
+    """A slice's layers as the thumbnails need them, all in the bed frame (mm).
+
+    Attributes:
+        mid: each layer's mid-height, ascending.
+        height: each layer's thickness.
+        outlines: each layer's outline (polygonal shapely geometry).
+        offset: the placement offset ``(x, y, z)``: design frame = bed frame - offset.
+    """
+
+    mid: np.ndarray
+    height: np.ndarray
+    outlines: Sequence[shapely.Geometry]
+    offset: tuple[float, float, float]
+
+
 def _view_basis() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Unit vectors: view direction (camera to scene), screen right, screen up."""
     az, el = math.radians(AZIMUTH_DEG), math.radians(ELEVATION_DEG)
@@ -77,15 +100,18 @@ class _Grid:
 
     :meth:`from_sdf` samples the design's signed distance; :meth:`from_sections`, for
     designs whose signed distance is slow (meshes), fills the grid from the design's
-    sections (inside/outside per cell) and converts that to a distance by chamfer
-    propagation (:func:`_chamfer_distance`), smoothed over one cell (:func:`_smooth`).
+    sections (inside/outside per cell), :meth:`from_layers` from a slice's layer outlines;
+    both convert that to a distance (:meth:`from_inside`).
     """
 
-    def __init__(self, lo: np.ndarray, step: np.ndarray, sdf: np.ndarray) -> None:
+    def __init__(self, lo: np.ndarray, step: np.ndarray, sdf: np.ndarray, planes: np.ndarray | None = None) -> None:
         self.lo = lo
         self.step = step
         self.sdf = sdf
         self.gradient = np.gradient(sdf, *step)
+        self.planes = planes
+        """From layers: the design-frame height (mm) of the layer each grid plane was drawn
+        from (grid planes outside the layers take the nearest drawn one's); else None."""
 
     @staticmethod
     def _axes(lo: np.ndarray, hi: np.ndarray, points: int) -> tuple[list[np.ndarray], np.ndarray]:
@@ -106,6 +132,40 @@ class _Grid:
         axes, step = cls._axes(lo, hi, points)
         xx, yy = np.meshgrid(axes[0], axes[1], indexing="ij")
         inside = np.stack([shapely.contains_xy(section, xx, yy) for section in design.sections(axes[2])], axis=2)
+        return cls.from_inside(lo, step, inside)
+
+    @classmethod
+    def from_layers(cls, layers: LayerOutlines, lo: np.ndarray, hi: np.ndarray, points: int) -> _Grid:
+        """Each grid plane takes the outline of the layer nearest to it (empty above the top
+        layer and below the bottom one); ``lo``, ``hi`` in the design frame."""
+        axes, step = cls._axes(lo, hi, points)
+        ox, oy, oz = layers.offset
+        xx, yy = np.meshgrid(axes[0] + ox, axes[1] + oy, indexing="ij")
+        mid, half = np.asarray(layers.mid, float), np.asarray(layers.height, float) / 2
+        z = axes[2] + oz
+        after = np.clip(np.searchsorted(mid, z), 1, len(mid) - 1) if len(mid) > 1 else np.zeros(len(z), int)
+        nearest = np.where(np.abs(z - mid[after - 1]) <= np.abs(z - mid[after]), after - 1, after)
+        within = np.abs(z - mid[nearest]) <= half[nearest]
+        inside = np.zeros(xx.shape + (len(z),), dtype=bool)
+        drawn = np.flatnonzero(within)
+        for k in drawn:
+            inside[:, :, k] = shapely.contains_xy(layers.outlines[nearest[k]], xx, yy)
+        grid = cls.from_inside(lo, step, inside)
+        if len(drawn):
+            closest = drawn[np.abs(np.arange(len(z))[:, None] - drawn[None, :]).argmin(axis=1)]
+            grid.planes = mid[nearest[closest]] - oz
+        return grid
+
+    def plane_heights(self, points: np.ndarray) -> np.ndarray:
+        """Each of ``(n, 3)`` points' height snapped to the layer its grid plane was drawn
+        from (needs :attr:`planes`)."""
+        k = np.clip(np.rint((points[:, 2] - self.lo[2]) / self.step[2]).astype(int), 0, len(self.planes) - 1)
+        return self.planes[k]
+
+    @classmethod
+    def from_inside(cls, lo: np.ndarray, step: np.ndarray, inside: np.ndarray) -> _Grid:
+        """A distance from inside/outside per cell, by chamfer propagation
+        (:func:`_chamfer_distance`), smoothed over one cell (:func:`_smooth`)."""
         sdf = _chamfer_distance(inside, step, CHAMFER_PASSES) - _chamfer_distance(~inside, step, CHAMFER_PASSES)
         return cls(lo, step, _smooth(sdf))
 
@@ -220,14 +280,15 @@ def _ray_box(origins: np.ndarray, view: np.ndarray, lo: np.ndarray, hi: np.ndarr
 
 class _Scene:
     """What every view of one design shares: its padded bounds (mm), whether its exact
-    signed distance is cheap, and the sampled-distance :class:`_Grid`; built once for all
-    thumbnail sizes."""
+    signed distance is used, and the sampled-distance :class:`_Grid` (from ``layers`` when
+    given); built once for all thumbnail sizes."""
 
-    def __init__(self, design: Design) -> None:
+    def __init__(self, design: Design, layers: LayerOutlines | None = None) -> None:
         (x0, y0, z0), (x1, y1, z1) = design.bounds()
         lo, hi = np.array([x0, y0, z0], float), np.array([x1, y1, z1], float)
         pad = 0.02 * float(np.linalg.norm(hi - lo)) + 1e-3
         self.design = design
+        self.layers = layers
         self.lo, self.hi = lo - pad, hi + pad
         self._grid: _Grid | None = None
         self._exact: bool | None = None
@@ -241,10 +302,13 @@ class _Scene:
 
     @property
     def grid(self) -> _Grid:
-        """The sampled distance (from the signed distance when exact, else from sections)."""
+        """The sampled distance: from the signed distance when exact, else from the layers
+        when given, else from the design's sections."""
         if self._grid is None:
             if self.exact:
                 self._grid = _Grid.from_sdf(self.design, self.lo, self.hi, GRID_POINTS)
+            elif self.layers is not None:
+                self._grid = _Grid.from_layers(self.layers, self.lo, self.hi, SECTION_GRID_POINTS)
             else:
                 self._grid = _Grid.from_sections(self.design, self.lo, self.hi, SECTION_GRID_POINTS)
         return self._grid
@@ -302,7 +366,7 @@ def render_image(design: Design, width: int, height: int, scene: _Scene | None =
         b = np.where(inside, mid, b)
         a = np.where(inside, a, mid)
     p = o + b[:, None] * view
-    fractions = np.asarray(design.fractions(p[:, 0], p[:, 1], p[:, 2]), dtype=float).reshape(len(p), -1)
+    fractions = _fractions(design, p, grid.plane_heights(p) if grid.planes is not None else None)
     color = mix_rgba(fractions, materials_rgba(design.materials))
     light = -view + 0.6 * up + 0.3 * right
     light /= np.linalg.norm(light)
@@ -310,6 +374,22 @@ def render_image(design: Design, width: int, height: int, scene: _Scene | None =
     color[:, :3] *= shade[:, None]
     image[rays[found]] = color
     return image.reshape(height, width, 4)
+
+
+def _fractions(design: Design, points: np.ndarray, planes: np.ndarray | None) -> np.ndarray:
+    """The design's fractions ``(n, k)`` at ``(n, 3)`` points (mm); with ``planes`` (a
+    height per point), at the points moved to those heights, one call per height: points
+    of one plane find the body they belong to from its section, not a 3-D distance
+    (:mod:`fgslice.design.membership`)."""
+    if planes is None:
+        return np.asarray(design.fractions(points[:, 0], points[:, 1], points[:, 2]), dtype=float).reshape(len(points), -1)
+    heights, which = np.unique(planes, return_inverse=True)
+    out = np.empty((len(points), len(design.materials)))
+    for k, z in enumerate(heights):
+        at = np.flatnonzero(which == k)
+        values = design.fractions(points[at, 0], points[at, 1], np.full(len(at), z))
+        out[at] = np.asarray(values, dtype=float).reshape(len(at), -1)
+    return out
 
 
 def thumbnail_png(design: Design, width: int, height: int, scene: _Scene | None = None) -> bytes:
@@ -322,12 +402,16 @@ def thumbnail_png(design: Design, width: int, height: int, scene: _Scene | None 
     return buffer.getvalue()
 
 
-def render_thumbnails(design: Design, settings, sizes: list[tuple[int, int]] | None = None) -> list[tuple[bytes, int, int]]:
+def render_thumbnails(
+    design: Design, settings, sizes: list[tuple[int, int]] | None = None, layers: LayerOutlines | None = None,
+) -> list[tuple[bytes, int, int]]:
     """Thumbnails ``[(png, width, height), ...]`` for ``GcodeWriter(..., thumbnails=...)``.
 
     ``sizes`` defaults to :func:`parse_sizes` of ``settings.thumbnails`` (SettingsError
-    when malformed); an empty list means no thumbnails.
+    when malformed); an empty list means no thumbnails. ``layers``: the slice's layer
+    outlines to draw the part from (what :func:`fgslice.pipeline.slice_to_gcode` passes
+    to its ``thumbnails`` function in strategy 1); None: the design itself.
     """
     chosen = parse_sizes(settings.thumbnails) if sizes is None else sizes
-    scene = _Scene(design)
+    scene = _Scene(design, layers)
     return [(thumbnail_png(design, w, h, scene), w, h) for w, h in chosen]
