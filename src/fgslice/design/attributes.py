@@ -21,6 +21,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from fgslice.design import nodes
+from fgslice.design.membership import owners
 from fgslice.errors import DesignError, did_you_mean
 
 UNITS = {"temperature": "C", "flow": "%", "fan": "%", "speed": "%", "infill_density": "%"}
@@ -125,9 +126,7 @@ class AttributeFields:
         children = node.children
         if isinstance(node, (nodes.Intersection, nodes.Difference)) or len(children) == 1:
             return self._values(children[0], name, x, y, z, ctx)
-        d = np.stack([np.broadcast_to(c.sdf(x, y, z), np.shape(x)) for c in children])
-        inside = d <= 0
-        owner = np.where(inside.any(axis=0), np.argmax(inside, axis=0), np.argmin(d, axis=0))
+        owner = owners(children, x, y, z)  # the union's rule for materials, the same here
         out = ctx.copy()
         for i, child in enumerate(children):
             sel = np.flatnonzero(owner == i)
