@@ -113,7 +113,7 @@ def test_nested_attributes_several_workers_and_lookahead_splits(tmp_path):
     np.testing.assert_allclose(program.fan_of_moves()[tower], settings.fan_speed, atol=0.5)
 
 
-def test_slice_refuses_attributes_outside_the_limits_and_unwritten_ones(tmp_path):
+def test_slice_refuses_attributes_outside_the_limits(tmp_path):
     with pytest.raises(DesignError, match="attribute 'flow' ranges"):
         _slice(f'attribute("flow", 300) {{ {PLATE} }}', tmp_path)
     assert not (tmp_path / "part.gcode").exists()
@@ -148,12 +148,9 @@ def test_a_constant_infill_density_attribute_prints_as_the_setting(tmp_path):
     np.testing.assert_array_equal(graded.e, plain.e)
 
 
-def test_strategy_2_warns_that_it_ignores_infill_density_and_temperature_is_refused(tmp_path):
+def test_strategy_2_warns_that_it_ignores_infill_density(tmp_path):
     _, _, stats, _ = _slice('attribute("infill_density", 30) { cube(5); }', tmp_path)
     assert any("infill_density attribute is ignored" in w for w in stats["warnings"])
-    with pytest.raises(DesignError, match="does not write the attribute temperature"):
-        _slice('attribute("temperature", 215) { cube(5); }', tmp_path, name="hot.gcode")
-    assert not (tmp_path / "hot.gcode").exists()
 
 
 @pytest.mark.parametrize("tolerance", [0.5, 5.0])

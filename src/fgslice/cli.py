@@ -118,14 +118,14 @@ def _write_report(path: Path, result, settings, design) -> None:
     """The HTML report of a finished slice, with its simulated fidelity."""
     from fgslice.analysis.fidelity import fidelity, simulation_stats
     from fgslice.analysis.simulate import simulate
-    from fgslice.machine.dialects import make_dialect
+    from fgslice.machine.state_dialect import dialect_for
     from fgslice.preview.report import write_report
-    from fgslice.slicing.palette import Palette
+    from fgslice.slicing.states import make_palette
 
-    palette = Palette(len(design.materials), result.stats["colors"], settings.palette)
+    palette = make_palette(len(design.materials), settings.colors, settings.palette, result.stats.get("temperature_levels"))
     simulated = simulate(result.output, design, None, settings)
     write_report(
-        path, stats=result.stats, settings=settings, palette=palette, dialect=make_dialect(settings, palette),
+        path, stats=result.stats, settings=settings, palette=palette, dialect=dialect_for(settings, palette),
         program=result.output, design=design, fidelity=simulation_stats(simulated, fidelity(simulated)),
     )
     click.echo(f"{path}: report written")

@@ -42,7 +42,7 @@ from fgslice.errors import SliceError
 from fgslice.executor import Consumer, default_jobs, map_ordered
 from fgslice.guards import check_resources
 from fgslice.interrupts import sigint_held
-from fgslice.machine.dialects import make_dialect
+from fgslice.machine.state_dialect import dialect_for
 from fgslice.machine.gcode import GcodeWriter, build_number_tables, prepare_bodies
 from fgslice.machine.grading import SegmentGrading, checked_attributes
 from fgslice.machine.verify import FOLLOW_BLOCK_BYTES, follow_file, format_faults, verify_gcode, verify_gcode_blocks
@@ -52,6 +52,7 @@ from fgslice.planning.order import order_layer
 from fgslice.planning.plan import LayerPlan
 from fgslice.planning.purge import PurgeStats, PurgeTower, insert_purges
 from fgslice.planning.purge_size import PurgeSizer
+from fgslice.planning.state_leads import apply_state_leads
 from fgslice.planning.repeats import RepeatedLayers
 from fgslice.preview.thumbnails import LayerOutlines
 from fgslice.settings import Settings
@@ -60,6 +61,7 @@ from fgslice.slicing.layers import LayerRegions, Placement
 from fgslice.slicing.palette import Palette
 from fgslice.slicing.plan_layers import layer_heights, place_design
 from fgslice.slicing.regions import polygonal_each, slice_layer
+from fgslice.slicing.states import StatePalette, field_for, make_palette, material_palette, state_levels
 from fgslice.toolpaths import strategy1, strategy2
 from fgslice.toolpaths.paths import Path, Role
 from fgslice.toolpaths.skirt import skirt_paths
@@ -88,7 +90,7 @@ class SliceJob:
 
     design: Design
     settings: Settings
-    palette: Palette
+    palette: Palette | StatePalette
     placement: Placement
     layers: list[tuple[int, float, float]]
     start_xy: np.ndarray
@@ -168,7 +170,7 @@ def _layer_task(job: SliceJob, index: int) -> LayerResult:
         regions = LayerRegions(index=i, z=z_top, height=height, outline=outline, faces=())
         below = job.outlines[max(0, index - s.bottom_layers) : index][::-1]
         above = job.outlines[index + 1 : index + 1 + s.top_layers]
-        field_ = BedField(job.design, job.placement)
+        field_ = field_for(job.design, job.placement, job.palette, s)
         paths, short = strategy1.layer_paths(regions, below, above, field_, job.palette, s)
     if index == 0:
         paths.paths = skirt_paths(regions.outline, s) + paths.paths
@@ -192,8 +194,8 @@ def _part_footprint(job: SliceJob) -> shapely.Geometry:
 
 
 def _max_colors_per_layer(job: SliceJob, jobs: int, scheduler: str | None) -> int:
-    """An upper bound of the colors a layer holds, hence of its state changes (sizes the
-    purge tower).
+    """An upper bound of the material colors a layer holds, hence of its purged state
+    changes (sizes the purge tower).
 
     The bound cannot exceed the palette size, so the layer of largest outline area
     (likeliest to span the most colors) is tried first: when it reaches the palette size,
@@ -202,8 +204,8 @@ def _max_colors_per_layer(job: SliceJob, jobs: int, scheduler: str | None) -> in
     if not job.layers:
         return 1
     widest = int(np.argmax(shapely.area(job.outlines)))
-    if _colors_in_outline(job, widest) >= job.palette.size:
-        return job.palette.size
+    if _colors_in_outline(job, widest) >= material_palette(job.palette).size:
+        return material_palette(job.palette).size
     return max(map_ordered(_colors_in_outline, job, range(len(job.layers)), jobs=jobs, scheduler=scheduler), default=1)
 
 
@@ -214,9 +216,11 @@ def _colors_in_outline(job: SliceJob, index: int) -> int:
     What the samples miss is bounded by ``delta``, twice the largest difference of a
     fraction between neighbouring samples (grid neighbours inside the outline, consecutive
     vertices), plus the zipper band (``zipper`` percent of the range: its teeth take the
-    color across a boundary the field only approaches). Two materials: every bin that ``[min - delta, max + delta]`` of the first
-    fraction meets. More materials: one color when no fraction varies (``delta = 0``,
-    e.g. a part of one material), else the palette size.
+    color across a boundary the field only approaches). Two materials: every bin that
+    ``[min - delta, max + delta]`` of the first fraction meets. More materials: one color
+    when no fraction varies (``delta = 0``, e.g. a part of one material), else the
+    palette size. With temperature states only the material colors count: a change of
+    temperature alone purges nothing (:meth:`PurgeSizer.length`).
     """
     outline = job.outlines[index]
     if outline.is_empty:
@@ -232,11 +236,11 @@ def _colors_in_outline(job: SliceJob, index: int) -> int:
     steps = [np.diff(grid, axis=0).reshape(-1, f.shape[1]), np.diff(grid, axis=1).reshape(-1, f.shape[1]),
              np.diff(f[int(inside.sum()) :], axis=0)]
     delta = 2.0 * max(float(np.abs(d[np.isfinite(d)]).max(initial=0.0)) for d in steps) + job.settings.zipper / 100
-    size = job.palette.size
-    if job.palette.n_materials != 2:
-        return 1 if delta == 0.0 else size
+    palette = material_palette(job.palette)
+    if palette.n_materials != 2:
+        return 1 if delta == 0.0 else palette.size
     first = np.clip([f[:, 0].min() - delta, f[:, 0].max() + delta], 0.0, 1.0)
-    lo, hi = job.palette.color_of(np.c_[first, 1.0 - first])
+    lo, hi = palette.color_of(np.c_[first, 1.0 - first])
     return int(abs(hi - lo) + 1)
 
 
@@ -292,14 +296,13 @@ def slice_to_gcode(
     """
     started = time.perf_counter()
     jobs = default_jobs() if jobs is None else max(1, jobs)
-    n_materials = len(design.materials)
-    palette = Palette(n_materials, settings.colors if n_materials > 1 else 1, settings.palette)
-    dialect = make_dialect(settings, palette)
+    attributes = checked_attributes(design, settings)
+    palette = make_palette(len(design.materials), settings.colors, settings.palette, state_levels(attributes, settings))
+    dialect = dialect_for(settings, palette)
     placement = place_design(design, settings)
     layers = layer_heights(design, settings)
     check_resources(design, settings, len(layers))
     bed_center = np.array([settings.bed_x / 2, settings.bed_y / 2])
-    attributes = checked_attributes(design, settings)
     job = SliceJob(design, settings, palette, placement, layers, bed_center,
                    grading=SegmentGrading.of(attributes, placement.offset, settings))
     if settings.strategy == 2:
@@ -342,7 +345,10 @@ def slice_to_gcode(
 
         purge_stats = PurgeStats()
         stream = insert_purges(plans(), tower, settings, palette, purge_stats, sizer) if tower else plans()
-        if settings.dialect == "temperature" and settings.temperature_lead_s > 0:
+        if isinstance(palette, StatePalette) and settings.dialect != "toolchanger":
+            stream = apply_state_leads(stream, palette, settings.lookahead_distance, settings.temperature_lead_s,
+                                       _speed_of(settings))
+        elif settings.dialect == "temperature" and settings.temperature_lead_s > 0:
             stream = apply_time_lead(stream, settings.temperature_lead_s, _speed_of(settings))
         elif settings.lookahead_distance > 0:
             stream = apply_lookahead(stream, settings.lookahead_distance)
@@ -350,6 +356,8 @@ def slice_to_gcode(
         header = {
             "placement_offset": ",".join(f"{v:.4f}" for v in placement.offset),
             "materials": ",".join(m.name for m in design.materials),
+            **({"temperature_levels": ",".join(f"{t:g}" for t in palette.levels)}
+               if isinstance(palette, StatePalette) else {}),
             **(comments or {}),
         }
         # with workers, a process verifies the file while it is written; forked before the
@@ -419,20 +427,23 @@ def slice_to_gcode(
             "elapsed_s": round(time.perf_counter() - started, 3),
         }
     )
+    if isinstance(palette, StatePalette):
+        stats["temperature_levels"] = palette.levels.tolist()
     stats["simulated_within_half_bin"] = (
         _simulated_share(output, design, placement, settings, palette) if tower and sizer.model else None
     )
     return SliceResult(output=FilePath(output), stats=stats)
 
 
-def _simulated_share(output, design: Design, placement, settings: Settings, palette: Palette) -> float:
+def _simulated_share(output, design: Design, placement, settings: Settings, palette: Palette | StatePalette) -> float:
     """Share of the part the dead-volume model predicts within half a palette bin of the
     design, simulating the written G-code (:mod:`fgslice.analysis.simulate`)."""
     from fgslice.analysis.fidelity import predicted_within_half_bin
     from fgslice.analysis.simulate import simulate
 
-    result = simulate(FilePath(output), design, placement, settings, palette_size=palette.size)
-    return round(predicted_within_half_bin(result, palette.size), 6)
+    size = material_palette(palette).size
+    result = simulate(FilePath(output), design, placement, settings, palette_size=size)
+    return round(predicted_within_half_bin(result, size), 6)
 
 
 def _sliver_warning(reassigned: list[tuple[int, float]], layers: int, settings: Settings) -> list[str]:

@@ -71,6 +71,7 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     feature_order: Annotated[Literal["walls_first", "infill_first"], Meta(description="within a color, strategy 1")] = "walls_first"
     min_segment_mm: Annotated[float, Meta(ge=0, le=1000, description="strategy 1 warns when color pieces are shorter, mm")] = 5.0
     zipper: Annotated[float, Meta(ge=0, le=100, description="zipper overlap band beta, percent of the gradient range")] = 0.0
+    temperature_step: Annotated[float, Meta(ge=0.5, le=100, description="a temperature attribute is commanded in levels this far apart (multiples of it), C")] = 5.0
     attribute_tolerance: Annotated[float, Meta(gt=0, le=100, description="largest change of a fan, flow or speed attribute over one extrusion piece, points of percent")] = 2.0
     gcode_resolution: Annotated[float, Meta(gt=0, le=1.0, description="path simplification tolerance, mm")] = 0.0125
 
@@ -90,7 +91,7 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     purge_tower_x: Annotated[float | None, Meta(description="tower center X (bed frame), mm; None: automatic")] = None
     purge_tower_y: Annotated[float | None, Meta(description="tower center Y (bed frame), mm; None: automatic")] = None
     lookahead_mm: Annotated[float | Literal["auto"], Meta(description="issue state changes this far ahead (extruded path length), mm; 'auto' derives it from melt_volume_mm3")] = 0.0
-    temperature_lead_s: Annotated[float, Meta(ge=0, le=3600, description="temperature dialect: issue changes this long ahead, s")] = 0.0
+    temperature_lead_s: Annotated[float, Meta(ge=0, le=3600, description="temperature dialect, and a temperature attribute on a mixing hotend: issue temperature changes this long ahead, s")] = 0.0
     tau_s: Annotated[float, Meta(gt=0, le=3600, description="thermal time constant of the hotend for simulation, s")] = 8.0
     mixing_share: Annotated[float, Meta(ge=0, le=1, description="share of the melt chamber that is well mixed (simulation)")] = 0.3
 

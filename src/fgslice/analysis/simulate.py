@@ -648,8 +648,8 @@ def simulate(
             temperature profile for a design of other than two materials.
     """
     from fgslice.machine.gcode_reader import GcodeProgram, iter_gcode
-    from fgslice.slicing.palette import Palette
     from fgslice.slicing.plan_layers import place_design
+    from fgslice.slicing.states import header_palette, material_palette
 
     header = GcodeHeader() if isinstance(gcode, GcodeProgram) else _header_of(gcode)
     if settings.dialect == "temperature" and len(design.materials) != 2:
@@ -658,7 +658,8 @@ def simulate(
             hint="simulate with the profile the G-code was sliced for (--profile)",
         )
     size = palette_size or header.colors or (settings.tool_count if settings.dialect == "toolchanger" else settings.colors)
-    palette = Palette(len(design.materials), size, header.palette or settings.palette)
+    palette = header_palette(len(design.materials), size, header.palette or settings.palette,
+                             header.settings.get("temperature_levels"))
     if placement is not None:
         offset = tuple(placement.offset)
     elif header.placement_offset is not None:
@@ -667,7 +668,9 @@ def simulate(
         offset = tuple(place_design(design, settings).offset)
     model = MeltModel.from_settings(settings, melt_volume_mm3)
     chunks = [gcode] if isinstance(gcode, GcodeProgram) else iter_gcode(gcode)
-    trace = trace_from_chunks(chunks, settings, palette.centers, travels=model.kind == "thermal")
+    # a toolchanger's tool n prints material color n (whatever the temperature level)
+    centers = material_palette(palette).centers if settings.dialect == "toolchanger" else palette.centers
+    trace = trace_from_chunks(chunks, settings, centers, travels=model.kind == "thermal")
     return simulate_trace(trace, design, offset, model, palette_size=size, part_tolerance_mm=settings.bead_width / 2)
 
 

@@ -82,11 +82,16 @@ class AttributeFields:
     """The attributes of a node tree, evaluated at points of the root's frame.
 
     ``names`` lists the attribute names the tree uses, in the order they first appear.
-    :meth:`values` gives NaN where no attribute of the name encloses a point.
+    :meth:`values` gives NaN where no attribute of the name encloses a point. ``ranges``
+    and ``cover`` are filled by the slicer's check
+    (:func:`fgslice.machine.grading.checked_attributes`): each attribute's
+    ``(min, max)`` over the part and the share of the part it covers (0-1).
     """
 
     def __init__(self, root: nodes.Node) -> None:
         self.root = root
+        self.ranges: dict[str, tuple[float, float]] = {}
+        self.cover: dict[str, float] = {}
         self._below: dict[int, frozenset[str]] = {}
         names: list[str] = []
         for node, *_ in nodes.walk(root):

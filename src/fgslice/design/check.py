@@ -40,6 +40,7 @@ class CheckReport:
         fraction_ranges: material name -> (min, max) normalized fraction over the part.
         attribute_ranges: attribute name -> (min, max) of its values over the samples of
             the part it covers (units of :data:`fgslice.design.attributes.UNITS`).
+        attribute_cover: attribute name -> share of the part's samples it covers (0-1).
         inside_samples: grid points found inside the part.
         spacing: grid step used, mm.
         warnings: problems that still allow slicing.
@@ -53,6 +54,7 @@ class CheckReport:
     node_count: int
     fraction_ranges: dict[str, tuple[float, float]] = field(default_factory=dict)
     attribute_ranges: dict[str, tuple[float, float]] = field(default_factory=dict)
+    attribute_cover: dict[str, float] = field(default_factory=dict)
     inside_samples: int = 0
     spacing: float = 0.0
     warnings: list[str] = field(default_factory=list)
@@ -185,6 +187,7 @@ def _check_attributes(design: Design, x, y, z, settings, report: CheckReport) ->
         except FgsliceError as exc:
             report.errors.append(f"attribute '{name}' cannot be evaluated: {exc.message}")
             continue
+        report.attribute_cover[name] = float(np.isfinite(values).mean()) if values.size else 0.0
         values = values[np.isfinite(values)]
         if not values.size:
             report.warnings.append(f"attribute '{name}' covers no sample of the part (the settings apply)")

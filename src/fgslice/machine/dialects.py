@@ -87,6 +87,15 @@ class Dialect(ABC):
         color = self._color(color)
         return [f";STATE:{color} {self.palette.label(color)}", *self._commands(color)]
 
+    def change_commands(self, previous: int | None, color: int) -> list[str]:
+        """The lines of a change from state ``previous`` (None: unknown) to ``color``:
+        :meth:`state_commands` (a state's commands do not depend on the one before)."""
+        return self.state_commands(color)
+
+    def change_time(self, previous: int | None, color: int) -> float:
+        """Fixed time of a change from ``previous`` to ``color``, s: :attr:`change_time_s`."""
+        return self.change_time_s
+
     @abstractmethod
     def _commands(self, color: int) -> list[str]:
         """The machine commands (no comment) of ``color``'s state."""

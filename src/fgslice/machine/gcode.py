@@ -57,6 +57,7 @@ from fgslice.machine.prusa_config import footer_block
 from fgslice.machine.thumbnails import thumbnail_block
 from fgslice.planning.plan import EXTRA, ROLE_CODE, ROLES, STATE, LayerPlan, Prepared, SetState
 from fgslice.settings import Settings
+from fgslice.slicing.states import STATE_SETTINGS, StatePalette
 from fgslice.toolpaths.paths import Path, Role, bead_area
 
 INT_DIGITS = 9
@@ -587,7 +588,7 @@ class GcodeWriter:
         self.now = now
         self.filament_area = np.pi * settings.filament_diameter**2 / 4.0
         self._state: int | None = None
-        self._state_texts: dict[int, str] = {}  # the dialect's commands depend on the color only
+        self._state_texts: dict[tuple, str] = {}  # by (previous state, state)
         self._pos: tuple[float, float] | None = None
         self._z = 0.0
         self._role: Role | None = None
@@ -617,7 +618,8 @@ class GcodeWriter:
     def recorded_settings(self) -> dict[str, object]:
         """The settings the file records (header and settings block), by name: all of them
         but the attribute-grading ones when the design grades no instantaneous attribute."""
-        unused = () if self.grading is not None else GRADING_SETTINGS
+        unused = (() if self.grading is not None else GRADING_SETTINGS) + (
+            () if isinstance(self.palette, StatePalette) else STATE_SETTINGS)
         return {k: v for k, v in self.settings.as_dict().items() if k not in unused}
 
     def write_header(self) -> None:
@@ -706,13 +708,13 @@ class GcodeWriter:
         """The lines of a state change to ``color``, or "" if it is the current state."""
         if color == self._state:
             return ""
-        self._state = color
+        previous, self._state = self._state, color
         self._state_changes += 1
         self._colors_used.add(color)
-        self._time_s += self.dialect.change_time_s
-        text = self._state_texts.get(color)
+        self._time_s += self.dialect.change_time(previous, color)
+        text = self._state_texts.get((previous, color))
         if text is None:
-            text = self._state_texts[color] = "\n".join(self.dialect.state_commands(color)) + "\n"
+            text = self._state_texts[previous, color] = "\n".join(self.dialect.change_commands(previous, color)) + "\n"
         return text
 
     def _feeds(self, first_layer: bool) -> tuple[np.ndarray, np.ndarray]:

@@ -152,17 +152,12 @@ class SegmentGrading:
         return Pieces(parent, ends, values)
 
 
-SLICED = ("fan", "flow", "speed", "infill_density")
-"""The attributes the slicer writes; a design with another is refused when sliced."""
-
-
 def checked_attributes(design, settings) -> AttributeFields | None:
     """The attributes of ``design``, or None when it has none, after the check that
     ``fgslice check`` makes of them (:func:`fgslice.design.check.check_design`).
 
     Raises:
-        DesignError: an attribute leaves the machine's limits under ``settings``, or the
-            slicer cannot write it.
+        DesignError: an attribute leaves the machine's limits under ``settings``.
     """
     from fgslice.design.attributes import attribute_fields
     from fgslice.design.check import check_design
@@ -170,14 +165,9 @@ def checked_attributes(design, settings) -> AttributeFields | None:
     fields = attribute_fields(design)
     if fields is None:
         return None
-    unsliced = [n for n in fields.names if n not in SLICED]
-    if unsliced:
-        raise DesignError(
-            f"the slicer does not write the attribute{'s' if len(unsliced) > 1 else ''} {', '.join(unsliced)}",
-            hint=f"it writes {', '.join(SLICED)}; remove the others' attribute nodes",
-        )
-    problems = [e for e in check_design(design, samples=CHECK_SAMPLES, settings=settings).errors
-                if e.startswith("attribute '")]
+    report = check_design(design, samples=CHECK_SAMPLES, settings=settings)
+    problems = [e for e in report.errors if e.startswith("attribute '")]
     if problems:
         raise DesignError("; ".join(problems), hint="run 'fgslice check' on the design with the same profile")
+    fields.ranges, fields.cover = dict(report.attribute_ranges), dict(report.attribute_cover)
     return fields

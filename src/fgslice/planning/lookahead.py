@@ -30,7 +30,7 @@ import math
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
-from operator import attrgetter
+from operator import attrgetter, itemgetter
 
 import numpy as np
 
@@ -59,7 +59,7 @@ def apply_lookahead(plans: Iterable[LayerPlan], distance_mm: float) -> Iterator[
     if distance_mm == 0:
         yield from plans
         return
-    yield from _shift_changes(plans, float(distance_mm), lambda path: 1.0)
+    yield from shift_changes(plans, float(distance_mm), lambda path: 1.0)
 
 
 def apply_time_lead(
@@ -83,7 +83,7 @@ def apply_time_lead(
     if lead_s == 0:
         yield from plans
         return
-    yield from _shift_changes(plans, float(lead_s), lambda path: 1.0 / speed_of(path))
+    yield from shift_changes(plans, float(lead_s), lambda path: 1.0 / speed_of(path))
 
 
 def split_path(path: Path, offsets_mm: Sequence[float]) -> list[Path]:
@@ -125,8 +125,8 @@ class _PendingLayer:
     """A layer read from the input whose state changes are not all placed yet.
 
     ``starts``/``ends`` are the cumulative measure (mm or s) at each path's ends; ``rates``
-    the measure per mm of each path; ``changes`` the (position, SetState) to place,
-    positions non-decreasing.
+    the measure per mm of each path; ``changes`` the (position, SetState) to place
+    (placed in order of position, equal positions in the order they were added).
     """
 
     plan: LayerPlan
@@ -140,7 +140,7 @@ class _PendingLayer:
     def build(self) -> LayerPlan:
         """The layer's steps: paths in order with the changes placed (paths split)."""
         steps: list[Step] = []
-        changes, j = self.changes, 0
+        changes, j = sorted(self.changes, key=itemgetter(0)), 0
         for path, c0, c1, rate in zip(self.paths, self.starts, self.ends, self.rates):
             cuts: list[tuple[float, list[SetState]]] = []
             while j < len(changes) and changes[j][0] < c1 - EPS:
@@ -165,8 +165,15 @@ class _PendingLayer:
         return LayerPlan(index=plan.index, z=plan.z, height=plan.height, steps=steps, prepared=plan.prepared)
 
 
-def _shift_changes(plans: Iterable[LayerPlan], lead: float, rate_of: Callable[[Path], float]) -> Iterator[LayerPlan]:
-    """Place each SetState ``lead`` earlier in the cumulative measure ``sum(length * rate)``."""
+def shift_changes(
+    plans: Iterable[LayerPlan],
+    lead: float,
+    rate_of: Callable[[Path], float],
+    moves: Callable[[SetState], bool] | None = None,
+) -> Iterator[LayerPlan]:
+    """Place each SetState ``lead`` earlier in the cumulative measure ``sum(length * rate)``
+    (``rate_of(path)`` per mm); with ``moves``, only the changes it accepts move, the
+    others keep their places."""
     pending: deque[_PendingLayer] = deque()
     waiting: list[SetState] = []  # clamped at the start of the print: before the next path
     total = 0.0
@@ -175,6 +182,10 @@ def _shift_changes(plans: Iterable[LayerPlan], lead: float, rate_of: Callable[[P
         pending.append(layer)
         lengths = iter(path_lengths([s for s in plan.steps if isinstance(s, Path)]).tolist())
         for step in plan.steps:
+            if isinstance(step, SetState) and moves is not None and not moves(step):
+                layer.changes.extend((total, change) for change in [*waiting, step])
+                waiting = []
+                continue
             if isinstance(step, SetState):
                 position = max(total - lead, 0.0)
                 if position < total - EPS:

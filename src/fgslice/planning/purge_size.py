@@ -156,8 +156,12 @@ class PurgeSizer:
 
     def length(self, old: int | None, new: int, height: float, layer_index: int) -> float:
         """Purge length, mm of bead of ``height``, for the change from color ``old``
-        (None: unknown, the first change of a print) to ``new`` on layer ``layer_index``."""
+        (None: unknown, the first change of a print) to ``new`` on layer ``layer_index``;
+        0 between colors of the same mixture (a change of temperature alone,
+        :class:`~fgslice.slicing.states.StatePalette`)."""
         s = self.settings
+        if old is not None and old != new and np.array_equal(self.centers[old], self.centers[new]):
+            return 0.0
         if not self.model:
             return purge_length(s.melt_volume_mm3, s.bead_width, height)
         key = (old, new, height, layer_index == 0)

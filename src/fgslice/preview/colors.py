@@ -32,7 +32,7 @@ from fgslice.design.nodes import DEFAULT_MATERIAL
 from fgslice.errors import DesignError, GcodeError
 from fgslice.machine.gcode_header import GcodeHeader, parse_header, read_header
 from fgslice.machine.gcode_reader import GcodeProgram, read_gcode
-from fgslice.slicing.palette import Palette
+from fgslice.slicing.states import header_palette, material_palette
 
 UNKNOWN_RGBA = (0.62, 0.62, 0.62, 1.0)
 SINGLE_RGBA = (0.93, 0.45, 0.10, 1.0)
@@ -170,14 +170,16 @@ def _materials(printout: Printout, k: int) -> list[Material]:
     return [library.get(DEFAULT_MATERIALS[i % len(DEFAULT_MATERIALS)]) for i in range(k)]
 
 
-def _palette_colors(printout: Printout, index: np.ndarray) -> tuple[np.ndarray, dict[int, str]]:
-    """RGBA and labels of palette colors ``index`` (``-1`` unknown), from the header's palette."""
+def _palette_colors(printout: Printout, index: np.ndarray, tools: bool = False) -> tuple[np.ndarray, dict[int, str]]:
+    """RGBA and labels of palette colors ``index`` (``-1`` unknown), from the header's
+    palette; with ``tools``, of tools (a toolchanger's tool n prints material color n)."""
     info = printout.info
     known = index >= 0
     out = np.tile(UNKNOWN_RGBA, (len(index), 1))
     labels: dict[int, str] = {}
     if printout.materials and info.colors:
-        palette = Palette(len(printout.materials), info.colors, info.palette or "centers")
+        palette = header_palette(len(printout.materials), info.colors, info.palette, info.settings.get("temperature_levels"))
+        palette = material_palette(palette) if tools else palette
         names = [m.name for m in printout.materials]
         valid = known & (index < palette.size)
         out[valid] = mix_rgba(palette.centers[index[valid]], materials_rgba(printout.materials))
@@ -215,7 +217,7 @@ def state_colors(printout: Printout) -> StateColors:
         return StateColors(mode, rgba, key, labels)
     if mode in ("tool", "state"):
         index = np.array([s.tool if mode == "tool" else (-1 if s.color is None else s.color) for s in states])
-        rgba, labels = _palette_colors(printout, index)
+        rgba, labels = _palette_colors(printout, index, tools=mode == "tool")
         if mode == "tool":
             labels = {c: f"T{c}: {text}" for c, text in labels.items()}
         return StateColors(mode, rgba, index, labels)

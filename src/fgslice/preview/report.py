@@ -26,6 +26,7 @@ from fgslice.preview.colors import load_printout, materials_rgba, mix_rgba
 from fgslice.preview.layers import sheet_png
 from fgslice.preview.thumbnails import thumbnail_png
 from fgslice.slicing.palette import Palette
+from fgslice.slicing.states import StatePalette
 
 STYLE = """
 body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1100px; color: #222; }
@@ -117,13 +118,15 @@ def _stats_section(stats: Mapping) -> str:
     return f'<section id="statistics"><h2>Statistics</h2>{_table(rows)}{extra}</section>'
 
 
-def _palette_section(palette: Palette, materials, dialect) -> str:
+def _palette_section(palette: Palette | StatePalette, materials, dialect) -> str:
     names = [m.name for m in materials] if materials else [chr(65 + i) for i in range(palette.n_materials)]
     rgba = mix_rgba(palette.centers, materials_rgba(materials)) if materials else None
     rows = []
     for c in range(palette.size):
         swatch = f'<span class="swatch" style="background:{_hex(rgba[c])}"></span>' if rgba is not None else ""
         label = " / ".join(f"{n} {100 * f:.3g}%" for n, f in zip(names, palette.centers[c]))
+        if isinstance(palette, StatePalette):
+            label += f" @ {palette.temperatures[c]:g} C"
         commands = html.escape(dialect.describe(c)) if dialect is not None else ""
         rows.append(f"<tr><td class=\"num\">{c}</td><td>{swatch}</td><td>{html.escape(label)}</td><td><code>{commands}</code></td></tr>")
     head = "<tr><th>color</th><th></th><th>composition</th><th>commands</th></tr>"

@@ -51,7 +51,8 @@ from fgslice.design.materials import builtin_library
 from fgslice.errors import FgsliceError
 from fgslice.machine.gcode_header import GcodeHeader, read_footer, read_header
 from fgslice.machine.gcode_reader import GcodeProgram, MachineState, read_gcode
-from fgslice.slicing.palette import LETTERS, Palette
+from fgslice.slicing.palette import LETTERS
+from fgslice.slicing.states import header_palette
 
 HOST = "127.0.0.1"
 
@@ -119,7 +120,7 @@ def _palette_centers(header: GcodeHeader, n_materials: int) -> np.ndarray | None
     if header.colors is None or n_materials < 1:
         return None
     try:
-        return Palette(n_materials, header.colors, header.palette or "centers").centers
+        return header_palette(n_materials, header.colors, header.palette, header.settings.get("temperature_levels")).centers
     except FgsliceError:
         return None
 

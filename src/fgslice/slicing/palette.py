@@ -186,6 +186,7 @@ class Palette:
             into ``n_bands`` equal bands ``[b, b + 1) / n_bands``; color ``c`` is the
             intersection over ``l`` of the bands ``band_range[c, l, 0] ..
             band_range[c, l, 1]`` of value ``l``.
+        band_counts: ``(L,)`` the number of bands of each value (``n_bands`` each).
     """
 
     def __init__(self, n_materials: int, size: int, kind: str = "centers") -> None:
@@ -221,6 +222,7 @@ class Palette:
         )
         self._pairs = np.array([(i, j) for i in range(k) for j in range(i + 1, k)], dtype=np.int64).reshape(-1, 2)
         self.n_bands, self.band_range = self._band_layout()
+        self.band_counts = np.full(self.band_range.shape[1], self.n_bands)
 
     def _band_layout(self) -> tuple[int, np.ndarray]:
         """``(n_bands, band_range)`` (see the class docstring)."""

@@ -46,6 +46,7 @@ from fgslice.settings import Settings
 from fgslice.slicing.field import BedField
 from fgslice.slicing.layers import LayerRegions, Placement
 from fgslice.slicing.palette import Palette
+from fgslice.slicing.states import field_for
 
 MAX_GRID_POINTS = 40_000_000
 
@@ -221,7 +222,7 @@ def color_faces(
     lo, hi = palette.band_range[..., 0], palette.band_range[..., 1]
     faces = None
     for i in range(values.shape[-1]):
-        bands = _bands(xs, ys, values[:, :, i], palette.n_bands)
+        bands = _bands(xs, ys, values[:, :, i], int(palette.band_counts[i]))
         strip = bands[lo[:, i]]
         for extra in range(1, int((hi[:, i] - lo[:, i]).max()) + 1):
             wide = hi[:, i] - lo[:, i] >= extra
@@ -289,6 +290,6 @@ def slice_layer(
     section = design.section(z_plane - oz)
     outline = shapely.transform(section, lambda c: c + np.array([ox, oy]))
     outline = polygonal(shapely.simplify(polygonal(outline), SECTION_TOLERANCE, preserve_topology=False))
-    field = BedField(design, placement)
+    field = field_for(design, placement, palette, settings)
     faces = color_faces(outline, field, palette, z_plane, spacing or face_spacing(settings))
     return LayerRegions(index=index, z=z_top, height=height, outline=outline, faces=faces)

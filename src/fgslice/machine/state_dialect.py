@@ -1,0 +1,90 @@
+"""Writing states that combine a material color with a nozzle temperature.
+
+A :class:`~fgslice.slicing.states.StatePalette` color is a material color and a
+temperature level. :class:`StateDialect` writes a change between two such colors as the
+commands of the parts that change, after the ``;STATE:<color> <label>`` comment:
+
+* mixing hotends (``marlin-mixing``, ``marlin-mixing-m163``): ``M104 S<t>`` when the
+  level changes, then the mixture's own commands when the material color changes;
+* toolchangers: ``M104 T<n> S<t>`` then ``T<n>`` when the tool changes (the new tool
+  is set to the level before it is picked up), ``M104 T<n> S<t>`` for the active tool
+  when only the level changes.
+
+Temperatures are whole degrees C (Marlin keeps integer targets). ``M104`` does not wait:
+the nozzle follows while printing; ``temperature_lead_s`` issues the mixing hotend's
+temperature changes ahead of the mixture's (:mod:`fgslice.planning.state_leads`).
+The temperature (foaming) and template dialects already give the temperature another
+meaning or none, and refuse these palettes.
+"""
+
+from __future__ import annotations
+
+from fgslice.errors import SettingsError
+from fgslice.machine.dialects import Dialect, make_dialect
+from fgslice.settings import Settings
+from fgslice.slicing.states import StatePalette
+
+DIALECTS = ("marlin-mixing", "marlin-mixing-m163", "toolchanger")
+"""The dialects that can command the temperature as a state of its own."""
+
+
+class StateDialect(Dialect):
+    """The dialect of ``settings`` for the material part of each color, with the
+    temperature commands added (see the module notes)."""
+
+    def __init__(self, settings: Settings, palette: StatePalette) -> None:
+        if settings.dialect not in DIALECTS:
+            raise SettingsError(
+                f"the temperature attribute grades the nozzle temperature, which the {settings.dialect} dialect "
+                "does not command as a state of its own",
+                hint="slice with a mixing hotend or toolchanger profile (--profile marlin-mixing, "
+                     "--profile toolchanger), or remove the temperature attribute",
+            )
+        self.base = make_dialect(settings, palette.materials)
+        self.name = self.base.name
+        self.change_time_s = self.base.change_time_s
+        self.moves_head = self.base.moves_head
+        super().__init__(settings, palette)
+
+    def _tool(self) -> bool:
+        return self.base.name == "toolchanger"
+
+    def _temperature_command(self, color: int) -> str:
+        target = round(float(self.palette.temperatures[color]))
+        if self._tool():
+            return f"M104 T{int(self.palette.material_of[color])} S{target}"
+        return f"M104 S{target}"
+
+    def _commands(self, color: int) -> list[str]:
+        return self._change(None, color)
+
+    def change_commands(self, previous: int | None, color: int) -> list[str]:
+        """``;STATE:`` and the commands of the parts that differ from ``previous``."""
+        color = self._color(color)
+        return [f";STATE:{color} {self.palette.label(color)}", *self._change(previous, color)]
+
+    def change_time(self, previous: int | None, color: int) -> float:
+        """The material change's fixed time, s, when the material color changes; else 0."""
+        if previous is not None and self.palette.material_of[previous] == self.palette.material_of[color]:
+            return 0.0
+        return self.change_time_s
+
+    def _change(self, previous: int | None, color: int) -> list[str]:
+        p = self.palette
+        material = int(p.material_of[color])
+        new_level = previous is None or p.level_of[previous] != p.level_of[color]
+        new_material = previous is None or p.material_of[previous] != material
+        lines = [self._temperature_command(color)] if new_level or (new_material and self._tool()) else []
+        return lines + (self.base._commands(material) if new_material else [])
+
+    def start_commands(self) -> list[str]:
+        """The material dialect's (a toolchanger heats every tool the palette uses)."""
+        return self.base.start_commands()
+
+
+def dialect_for(settings: Settings, palette) -> Dialect:
+    """The dialect of ``settings`` for ``palette``: :class:`StateDialect` for temperature
+    states, else :func:`~fgslice.machine.dialects.make_dialect`."""
+    if isinstance(palette, StatePalette):
+        return StateDialect(settings, palette)
+    return make_dialect(settings, palette)
