@@ -139,6 +139,9 @@ def test_infill_density_grades_the_sparse_infill_across_the_layer(tmp_path):
         assert density == pytest.approx(30 + 0.5 * (lo + hi) / 2, rel=0.2, abs=2)
     total = volume.sum() / ((100 - 2 * settings.walls * settings.bead_width) * inner_y * settings.layer_height) * 100
     assert total == pytest.approx(30, rel=0.1)
+    # as commanded: the density regions' values, the field over x = -49.2 .. 49.2 in 5-point bands
+    low, high = stats["attributes"]["infill_density"]
+    assert 5 <= low <= 8 and 52 <= high <= 55
 
 
 def test_a_constant_infill_density_attribute_prints_as_the_setting(tmp_path):

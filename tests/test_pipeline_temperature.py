@@ -50,6 +50,7 @@ def test_mixing_hotend_commands_the_temperature_and_the_mixture_of_the_field(tmp
     settings, program, stats, out = _slice(GRADED, tmp_path, strategy=strategy, colors=4)
     assert stats["temperature_levels"] == [210.0, 215.0, 220.0]
     assert stats["colors"] == 12
+    assert stats["attributes"]["temperature"] == [210.0, 220.0]
     part = _part_moves(program)
     mid = _midpoints(program, stats)[part]
     temperature, color = (v[part] for v in _commanded(program))

@@ -109,6 +109,7 @@ class LayerResult:
         uncovered_mm2: area narrower than a bead that no path covers, mm^2.
         reassigned_mm2: strategy 2's face area given to a neighbouring color, mm^2.
         colors: number of palette colors the layer's paths use.
+        commanded: the toolpaths' attribute ranges (:attr:`LayerPaths.commanded`).
     """
 
     plan: LayerPlan
@@ -116,6 +117,7 @@ class LayerResult:
     uncovered_mm2: float
     colors: int
     reassigned_mm2: float = 0.0
+    commanded: dict[str, tuple[float, float]] = field(default_factory=dict)
 
 
 @dataclass
@@ -178,7 +180,7 @@ def _layer_task(job: SliceJob, index: int) -> LayerResult:
     plan = order_layer(paths, job.palette.order_for_layer(i), job.start_xy, s.feature_order)
     prepare_bodies(plan, s, job.grading)
     result = LayerResult(plan=plan, short_pieces=short, uncovered_mm2=paths.uncovered_mm2, colors=colors,
-                         reassigned_mm2=paths.reassigned_mm2)
+                         reassigned_mm2=paths.reassigned_mm2, commanded=paths.commanded)
     if repeats is not None:
         repeats.keep(regions, plan, result)
     return result
@@ -330,6 +332,7 @@ def slice_to_gcode(
         short_records: list[strategy1.ShortPieces] = []
         uncovered = [0.0]
         reassigned = []  # (layer, mm^2) of the layers that gave slivers away
+        commanded: dict[str, list[float]] = {}  # the toolpaths' attribute ranges
         total = len(layers)
 
         def plans():
@@ -339,6 +342,9 @@ def slice_to_gcode(
                 uncovered[0] += result.uncovered_mm2
                 if result.reassigned_mm2 > 0:
                     reassigned.append((done - 1, result.reassigned_mm2))
+                for name, (low, high) in result.commanded.items():
+                    seen = commanded.setdefault(name, [low, high])
+                    seen[0], seen[1] = min(seen[0], low), max(seen[1], high)
                 if progress:
                     progress(done, total)
                 yield result.plan
@@ -427,6 +433,8 @@ def slice_to_gcode(
             "elapsed_s": round(time.perf_counter() - started, 3),
         }
     )
+    if commanded:
+        stats["attributes"] = {**stats.get("attributes", {}), **commanded}
     if isinstance(palette, StatePalette):
         stats["temperature_levels"] = palette.levels.tolist()
     stats["simulated_within_half_bin"] = (

@@ -957,6 +957,10 @@ class GcodeWriter:
         bbox = (
             [self._bbox_min.tolist(), self._bbox_max.tolist()] if np.isfinite(self._bbox_min).all() else None
         )
+        commanded = {k: v for k, v in self._commanded.items() if v[0] <= v[1]}
+        if isinstance(self.palette, StatePalette) and self._colors_used:
+            temperatures = self.palette.temperatures[sorted(self._colors_used)]
+            commanded["temperature"] = [float(temperatures.min()), float(temperatures.max())]
         return {
             "layers": self._stats_layers,
             "colors": self.palette.size,
@@ -973,7 +977,7 @@ class GcodeWriter:
             "filament_mm": filament_mm,
             "filament_g": extruded * grams_per_mm3,
             "warnings": warnings,
-            **({"attributes": {k: v for k, v in self._commanded.items() if v[0] <= v[1]}} if self._commanded else {}),
+            **({"attributes": commanded} if commanded else {}),
         }
 
 

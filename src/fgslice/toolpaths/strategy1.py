@@ -83,6 +83,9 @@ def layer_paths(
     out = LayerPaths(regions.index, regions.z, regions.height)
     out.paths = cut.paths
     out.uncovered_mm2 = uncovered_area(regions.outline, w, eroded=walls.eroded)
+    if sparse:
+        densities = [density for _, density in sparse]
+        out.commanded["infill_density"] = (min(densities), max(densities))
     kinds = _piece_kinds([raw[i].role for i in cut.bounded_paths.tolist()])
     return out, short_pieces(cut.bounded_lengths, palette.size, settings.min_segment_mm, regions.index, kinds,
                              cut.bounded_crossing)
