@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from fgslice.errors import SettingsError
+from fgslice.machine.flow import flow_percent
 from fgslice.machine.state_dialect import dialect_for
 from fgslice.planning.plan import LayerPlan, SetState
 from fgslice.planning.state_leads import apply_state_leads
@@ -84,6 +85,10 @@ def test_mixing_changes_write_only_what_changes():
     assert d.change_commands(4, 5) == [";STATE:5 A 37.5% / B 62.5% @ 210 C", "M104 S210"]
     assert d.change_commands(5, 6) == [";STATE:6 A 62.5% / B 37.5% @ 210 C", "M165 A0.6250 B0.3750"]
     assert d.describe(2) == "M104 S220 | M165 A0.1250 B0.8750"
+    foaming = dialect_for(load_settings(None, {"flow_model": "pla"}), _palette())
+    assert foaming.change_commands(4, 5)[1:] == ["M104 S210", f"M221 S{round(float(flow_percent('pla', 210.0)))}"]
+    tools = dialect_for(load_settings("toolchanger", {"flow_model": "tpu"}), _palette())
+    assert tools.change_commands(3, 4)[1:] == ["M104 T1 S215", f"M221 T1 S{round(float(flow_percent('tpu', 215.0)))}"]
 
 
 def test_toolchanger_sets_the_tool_before_picking_it():

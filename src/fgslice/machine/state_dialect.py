@@ -10,7 +10,10 @@ commands of the parts that change, after the ``;STATE:<color> <label>`` comment:
   is set to the level before it is picked up), ``M104 T<n> S<t>`` for the active tool
   when only the level changes.
 
-Temperatures are whole degrees C (Marlin keeps integer targets). ``M104`` does not wait:
+With a ``flow_model`` (foaming filament, :mod:`fgslice.machine.flow`) each ``M104`` is
+followed by ``M221 [T<n>] S<flow>``, the flow of the temperature sent, as the
+temperature dialect writes it. Temperatures and flows are whole numbers (Marlin keeps
+integer targets and percentages). ``M104`` does not wait:
 the nozzle follows while printing; ``temperature_lead_s`` issues the mixing hotend's
 temperature changes ahead of the mixture's (:mod:`fgslice.planning.state_leads`).
 The temperature (foaming) and template dialects already give the temperature another
@@ -21,6 +24,7 @@ from __future__ import annotations
 
 from fgslice.errors import SettingsError
 from fgslice.machine.dialects import Dialect, make_dialect
+from fgslice.machine.flow import flow_percent
 from fgslice.settings import Settings
 from fgslice.slicing.states import StatePalette
 
@@ -49,11 +53,13 @@ class StateDialect(Dialect):
     def _tool(self) -> bool:
         return self.base.name == "toolchanger"
 
-    def _temperature_command(self, color: int) -> str:
+    def _temperature_commands(self, color: int) -> list[str]:
         target = round(float(self.palette.temperatures[color]))
-        if self._tool():
-            return f"M104 T{int(self.palette.material_of[color])} S{target}"
-        return f"M104 S{target}"
+        tool = f"T{int(self.palette.material_of[color])} " if self._tool() else ""
+        lines = [f"M104 {tool}S{target}"]
+        if self.settings.flow_model != "none":
+            lines.append(f"M221 {tool}S{round(float(flow_percent(self.settings.flow_model, float(target))))}")
+        return lines
 
     def _commands(self, color: int) -> list[str]:
         return self._change(None, color)
@@ -74,7 +80,7 @@ class StateDialect(Dialect):
         material = int(p.material_of[color])
         new_level = previous is None or p.level_of[previous] != p.level_of[color]
         new_material = previous is None or p.material_of[previous] != material
-        lines = [self._temperature_command(color)] if new_level or (new_material and self._tool()) else []
+        lines = self._temperature_commands(color) if new_level or (new_material and self._tool()) else []
         return lines + (self.base._commands(material) if new_material else [])
 
     def start_commands(self) -> list[str]:
