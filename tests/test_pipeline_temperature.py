@@ -18,9 +18,10 @@ from fgslice.pipeline import slice_to_gcode
 from fgslice.preview.colors import load_printout, state_colors
 from fgslice.settings import load_settings
 from fgslice.slicing.states import header_palette
+from tests.conftest import EXAMPLES
 
-GRADED = """fgrade(["x/50 + 0.5", "0.5 - x/50"], ["yellow", "blue"]) {
-    attribute("temperature", "215 + 0.25*y") { rectprism(50, 40, 2); } }"""
+GRADED = (EXAMPLES / "temperature_gradient.vcad").read_text()
+"""Yellow to blue along x (50 mm), 215 + 0.25 y degC over y = -20 .. 20."""
 
 
 def _slice(text, tmp_path, profile=None, name="part.gcode", jobs=1, **overrides):
