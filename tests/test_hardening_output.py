@@ -17,6 +17,7 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
+import fgslice.design
 import fgslice.output
 import fgslice.pipeline
 from fgslice.cli import main
@@ -315,3 +316,40 @@ class _InterruptedOnEntry:
 
     def __exit__(self, *exc):
         return self.manager.__exit__(*exc)
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_an_internal_error_on_a_layer_names_it_and_keeps_the_old_output(tmp_path, monkeypatch, jobs):
+    design, out = tmp_path / "box.vcad", tmp_path / "box.gcode"
+    design.write_text(BOX)
+    out.write_text(OLD)
+
+    def broken(regions, settings):
+        if regions.index == 0:  # (later layers may repeat earlier ones without new paths)
+            raise ValueError("no usable geometry")
+        return strategy2_layer_paths(regions, settings)
+
+    strategy2_layer_paths = fgslice.pipeline.strategy2.layer_paths
+    monkeypatch.setattr(fgslice.pipeline.strategy2, "layer_paths", broken)
+    result = CliRunner().invoke(main, ["slice", str(design), "-o", str(out), "--jobs", str(jobs)])
+    assert result.exit_code == 2
+    assert "layer 0 (z = 0.200 mm) could not be sliced: ValueError: no usable geometry" in result.output
+    assert "Traceback" not in result.output
+    assert out.read_text() == OLD and leftovers(tmp_path) == []
+
+
+def test_an_unexpected_exception_is_a_short_message_unless_asked(tmp_path, monkeypatch):
+    design = tmp_path / "box.vcad"
+    design.write_text(BOX)
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("unexpected state")
+
+    monkeypatch.setattr(fgslice.design, "check_design", broken)
+    result = CliRunner().invoke(main, ["check", str(design)])
+    assert result.exit_code == 70
+    assert "internal error in 'fgslice check': RuntimeError: unexpected state" in result.output
+    assert "FGSLICE_TRACEBACK=1" in result.output and "Traceback" not in result.output
+    monkeypatch.setenv("FGSLICE_TRACEBACK", "1")
+    result = CliRunner().invoke(main, ["check", str(design)])
+    assert isinstance(result.exception, RuntimeError)

@@ -173,3 +173,10 @@ def test_too_many_levels_are_refused_with_a_step_that_fits(tmp_path):
     with pytest.raises(SettingsError, match="levels of 0.5 C") as info:
         _slice('attribute("temperature", "210 + 0.8*x") { rectprism(50, 20, 2); }', tmp_path, temperature_step=0.5)
     assert "temperature_step=" in info.value.hint
+
+
+def test_designs_without_a_temperature_attribute_record_no_levels(tmp_path):
+    *_, out = _slice('attribute("fan", 40) { rectprism(20, 20, 2); }', tmp_path, strategy=2)
+    text = out.read_text()
+    assert "temperature_levels" not in text and "temperature_step" not in text
+    assert "@" not in "".join(line for line in text.splitlines() if line.startswith(";STATE:"))

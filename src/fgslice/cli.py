@@ -24,8 +24,13 @@ def _fail(error: FgsliceError) -> None:
     sys.exit(error.exit_code)
 
 
+INTERNAL_ERROR_EXIT = 70
+"""Exit status of an unexpected exception (``EX_SOFTWARE``): a bug, not bad input."""
+
+
 class _Group(click.Group):
-    """Turns fgslice errors and Ctrl-C into short messages instead of tracebacks."""
+    """Turns fgslice errors, Ctrl-C and unexpected exceptions into short messages instead
+    of tracebacks (``FGSLICE_TRACEBACK=1`` shows the traceback of an unexpected one)."""
 
     def invoke(self, ctx: click.Context):
         try:
@@ -35,6 +40,15 @@ class _Group(click.Group):
         except KeyboardInterrupt:
             click.echo("interrupted: no output file was written or changed", err=True)
             sys.exit(130)
+        except (click.ClickException, click.exceptions.Exit, click.exceptions.Abort):
+            raise
+        except Exception as error:
+            if os.environ.get("FGSLICE_TRACEBACK"):
+                raise
+            click.echo(f"error: internal error in 'fgslice {ctx.invoked_subcommand}': {type(error).__name__}: {error}\n"
+                       "  hint: this is a bug in fgslice, not in the input; "
+                       "run again with FGSLICE_TRACEBACK=1 for the traceback to report", err=True)
+            sys.exit(INTERNAL_ERROR_EXIT)
 
 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
@@ -391,8 +405,8 @@ def run() -> None:
     and stderr the process skips the interpreter's teardown of numpy, shapely, msgspec
     and the design's objects, about 0.1 s on every command. It exits normally instead
     (running ``atexit`` handlers) when a profiler or tracer is active (``python -m
-    cProfile``, coverage), so that it can save its data; an unexpected exception also
-    propagates as usual (traceback, normal exit). The process keeps the memory it
+    cProfile``, coverage), so that it can save its data. An unexpected exception is a
+    short message and exit status :data:`INTERNAL_ERROR_EXIT` (``_Group.invoke``). The process keeps the memory it
     frees for reuse (:func:`fgslice.heap.retain_freed_memory`), as its workers do.
 
     When a command is named, numpy is imported first, here at the bottom of the call

@@ -38,7 +38,7 @@ import numpy as np
 import shapely
 
 from fgslice.design.base import Design
-from fgslice.errors import SliceError
+from fgslice.errors import FgsliceError, SliceError
 from fgslice.executor import Consumer, default_jobs, map_ordered
 from fgslice.guards import check_resources
 from fgslice.interrupts import sigint_held
@@ -145,17 +145,43 @@ others go to the workers only when they would take longer than a pool saves
 (``map_ordered(probe=True)``): the vase's take about 0.09 s in all."""
 
 
+@contextlib.contextmanager
+def _failures_of(job: SliceJob, indices: Sequence[int]) -> Iterator[None]:
+    """Report an unexpected exception of the work on layers ``indices`` as a
+    :class:`SliceError` naming them (fgslice's own errors pass as they are)."""
+    try:
+        yield
+    except FgsliceError:
+        raise
+    except Exception as exc:
+        first, last = job.layers[indices[0]], job.layers[indices[-1]]
+        where = (f"layer {first[0]} (z = {first[1]:.3f} mm)" if len(indices) == 1 else
+                 f"layers {first[0]}-{last[0]} (z = {first[1]:.3f}-{last[1]:.3f} mm)")
+        raise SliceError(
+            f"{where} could not be sliced: {type(exc).__name__}: {exc}",
+            hint="a geometry operation failed there; a slightly different layer_height or bead_width often "
+                 "avoids it (and the design is worth reporting as a bug in fgslice)",
+        ) from exc
+
+
 def _section_task(job: SliceJob, indices: Sequence[int]) -> list[shapely.Geometry]:
     """Strategy 1, pass 1: the bed-frame outlines of some layers, each simplified once for
     the walls and skins of its layer and its neighbours (:func:`simplify_outline`)."""
     ox, oy, oz = job.placement.offset
-    sections = job.design.sections([job.layers[i][1] - job.layers[i][2] / 2 - oz for i in indices])
-    shifted = shapely.transform(np.array(sections, dtype=object), lambda c: c + np.array([ox, oy]))
-    return list(polygonal_each(simplify_outline(polygonal_each(shifted))))
+    with _failures_of(job, indices):
+        sections = job.design.sections([job.layers[i][1] - job.layers[i][2] / 2 - oz for i in indices])
+        shifted = shapely.transform(np.array(sections, dtype=object), lambda c: c + np.array([ox, oy]))
+        return list(polygonal_each(simplify_outline(polygonal_each(shifted))))
 
 
 def _layer_task(job: SliceJob, index: int) -> LayerResult:
     """Regions, toolpaths and order of one layer, and its paths' G-code moves."""
+    with _failures_of(job, [index]):
+        return _layer_result(job, index)
+
+
+def _layer_result(job: SliceJob, index: int) -> LayerResult:
+    """:func:`_layer_task`'s work."""
     s = job.settings
     i, z_top, height = job.layers[index]
     repeats = job.repeats if s.strategy == 2 and index > 0 else None  # the first layer holds the skirt
