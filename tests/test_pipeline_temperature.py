@@ -88,6 +88,10 @@ def test_toolchanger_sets_each_tool_before_it_is_picked_up(tmp_path):
     assert np.mean(np.abs(temperature - (215 + 0.25 * mid[:, 1])) <= settings.temperature_step / 2 + 0.1) > 0.98
     tools = np.array([s.tool for s in program.states])[program.state][part]
     np.testing.assert_array_equal(np.unique(tools), [0, 1, 2, 3])
+    # PrusaSlicer's and Moonraker's view: four tools, as many tool changes as T commands
+    assert f"; total toolchanges = {len(picks)}" in lines and "; referenced_tools = 0,1,2,3" in lines
+    colours = next(line for line in lines if line.startswith("; extruder_colour = "))
+    assert colours.count("#") == 4
 
 
 def test_a_single_material_part_graded_by_temperature_alone(tmp_path):

@@ -57,7 +57,7 @@ from fgslice.machine.prusa_config import footer_block
 from fgslice.machine.thumbnails import thumbnail_block
 from fgslice.planning.plan import EXTRA, ROLE_CODE, ROLES, STATE, LayerPlan, Prepared, SetState
 from fgslice.settings import Settings
-from fgslice.slicing.states import STATE_SETTINGS, StatePalette
+from fgslice.slicing.states import STATE_SETTINGS, StatePalette, material_colors
 from fgslice.toolpaths.paths import Path, Role, bead_area
 
 INT_DIGITS = 9
@@ -602,6 +602,7 @@ class GcodeWriter:
         self._travel_mm = 0.0
         self._time_s = 0.0
         self._state_changes = 0
+        self._tool_changes = 0  # changes of the material color (of the tool on a toolchanger)
         self._retractions = 0
         self._volume_by_color: dict[int, float] = {}
         self._purge_mm3 = 0.0
@@ -710,6 +711,8 @@ class GcodeWriter:
             return ""
         previous, self._state = self._state, color
         self._state_changes += 1
+        if previous is None or material_colors(self.palette, (previous,)) != material_colors(self.palette, (color,)):
+            self._tool_changes += 1
         self._colors_used.add(color)
         self._time_s += self.dialect.change_time(previous, color)
         text = self._state_texts.get((previous, color))
@@ -946,7 +949,7 @@ class GcodeWriter:
             f"; state changes = {self._state_changes}",
             f"; estimated printing time (normal mode) = {format_duration(self._time_s)}",
             *footer_block(s, self.palette, self.materials, version=fgslice_version(),
-                          state_changes=self._state_changes, colors_used=sorted(self._colors_used),
+                          tool_changes=self._tool_changes, colors_used=sorted(self._colors_used),
                           recorded=self.recorded_settings()),
             "",
         ]

@@ -210,3 +210,10 @@ def field_for(design, placement, palette, settings) -> BedField:
 def material_palette(palette: Palette | StatePalette) -> Palette:
     """The material palette of ``palette`` (itself for a :class:`Palette`)."""
     return palette.materials if isinstance(palette, StatePalette) else palette
+
+
+def material_colors(palette: Palette | StatePalette, colors) -> list[int]:
+    """The material color of each of ``colors`` (the colors themselves for a :class:`Palette`)."""
+    if isinstance(palette, StatePalette):
+        return [int(palette.material_of[c]) for c in colors]
+    return [int(c) for c in colors]
