@@ -88,7 +88,8 @@ def test_mixing_changes_write_only_what_changes():
     foaming = dialect_for(load_settings(None, {"flow_model": "pla"}), _palette())
     assert foaming.change_commands(4, 5)[1:] == ["M104 S210", f"M221 S{round(float(flow_percent('pla', 210.0)))}"]
     tools = dialect_for(load_settings("toolchanger", {"flow_model": "tpu"}), _palette())
-    assert tools.change_commands(3, 4)[1:] == ["M104 T1 S215", f"M221 T1 S{round(float(flow_percent('tpu', 215.0)))}"]
+    assert tools.change_commands(3, 4)[1:] == ["M104 T1 S215", f"M221 S{round(float(flow_percent('tpu', 215.0)))}"]
+    assert tools.change_commands(2, 3)[1:] == ["M104 T1 S220", "T1", f"M221 S{round(float(flow_percent('tpu', 220.0)))}"]
 
 
 def test_toolchanger_sets_the_tool_before_picking_it():

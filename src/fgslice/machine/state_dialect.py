@@ -10,9 +10,9 @@ commands of the parts that change, after the ``;STATE:<color> <label>`` comment:
   is set to the level before it is picked up), ``M104 T<n> S<t>`` for the active tool
   when only the level changes.
 
-With a ``flow_model`` (foaming filament, :mod:`fgslice.machine.flow`) each ``M104`` is
-followed by ``M221 [T<n>] S<flow>``, the flow of the temperature sent, as the
-temperature dialect writes it. Temperatures and flows are whole numbers (Marlin keeps
+With a ``flow_model`` (foaming filament, :mod:`fgslice.machine.flow`) the change ends
+with ``M221 S<flow>``, the flow of the temperature sent, as the temperature dialect
+writes it (after the tool change: it applies to the active tool in Marlin and Klipper). Temperatures and flows are whole numbers (Marlin keeps
 integer targets and percentages). ``M104`` does not wait:
 the nozzle follows while printing; ``temperature_lead_s`` issues the mixing hotend's
 temperature changes ahead of the mixture's (:mod:`fgslice.planning.state_leads`).
@@ -53,13 +53,8 @@ class StateDialect(Dialect):
     def _tool(self) -> bool:
         return self.base.name == "toolchanger"
 
-    def _temperature_commands(self, color: int) -> list[str]:
-        target = round(float(self.palette.temperatures[color]))
-        tool = f"T{int(self.palette.material_of[color])} " if self._tool() else ""
-        lines = [f"M104 {tool}S{target}"]
-        if self.settings.flow_model != "none":
-            lines.append(f"M221 {tool}S{round(float(flow_percent(self.settings.flow_model, float(target))))}")
-        return lines
+    def _target(self, color: int) -> int:
+        return round(float(self.palette.temperatures[color]))
 
     def _commands(self, color: int) -> list[str]:
         return self._change(None, color)
@@ -80,8 +75,13 @@ class StateDialect(Dialect):
         material = int(p.material_of[color])
         new_level = previous is None or p.level_of[previous] != p.level_of[color]
         new_material = previous is None or p.material_of[previous] != material
-        lines = self._temperature_commands(color) if new_level or (new_material and self._tool()) else []
-        return lines + (self.base._commands(material) if new_material else [])
+        heat = new_level or (new_material and self._tool())
+        tool = f"T{material} " if self._tool() else ""
+        lines = [f"M104 {tool}S{self._target(color)}"] if heat else []
+        lines += self.base._commands(material) if new_material else []
+        if heat and self.settings.flow_model != "none":
+            lines.append(f"M221 S{round(float(flow_percent(self.settings.flow_model, float(self._target(color)))))}")
+        return lines
 
     def start_commands(self) -> list[str]:
         """The material dialect's (a toolchanger heats every tool the palette uses)."""
