@@ -13,6 +13,7 @@ from fgslice.machine.gcode_header import read_header
 from fgslice.machine.gcode_reader import read_gcode
 from fgslice.pipeline import slice_to_gcode
 from fgslice.settings import load_settings
+from tests.conftest import EXAMPLES
 
 OPENVCAD_DEFAULTS = ["red", "green", "blue", "gray", "yellow", "cyan", "magenta", "white", "black", "pink",
                      "clear", "darkgray", "lightgray", "liquid", "support", "void"]
@@ -129,3 +130,22 @@ def test_the_void_grid_of_a_large_part_stays_bounded():
     region = void.void_region(margin, (-500, -500, 500, 500), 0.1)
     assert np.prod(calls[0]) <= void.MAX_GRID_POINTS * 1.01
     assert region.area == pytest.approx(np.pi * 100**2, rel=0.01)
+
+
+def test_where_void_wins_is_found_without_evaluating_parts_that_cannot_be_void(monkeypatch):
+    from fgslice.design.blend import Blend
+
+    text = (EXAMPLES / "blended_blocks.vcad").read_text()
+    design = parse_design(text)
+    xs, ys = np.meshgrid(np.linspace(-19, 19, 77), np.linspace(-9, 9, 37))
+    full = design.fractions(xs, ys, np.zeros_like(xs))  # (the blended fractions, void dropped)
+    calls = []
+    blend_raw = Blend.raw
+    monkeypatch.setattr(Blend, "raw", lambda self, *a: calls.append(1) or blend_raw(self, *a))
+    margin = design.void_margin(xs, ys, np.zeros_like(xs))
+    assert not calls
+    inside = np.hypot(xs, ys) <= 3 + 1e-9
+    np.testing.assert_array_equal(margin > 0, inside)
+    assert (margin[~inside] == -1).all() and np.allclose(full.sum(axis=-1), 1)
+    # the section: the blocks minus the 6 mm hole
+    assert design.section(0.0).area == pytest.approx(40 * 20 - np.pi * 9, rel=2e-3)

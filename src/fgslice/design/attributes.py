@@ -68,6 +68,7 @@ class Attribute(nodes.Node):
 
     # materials are the children's, as under a transform
     coordinate_free = nodes.Affine.coordinate_free
+    can_be_void = nodes.Affine.can_be_void
 
     def raw(self, x, y, z, columns):
         return self._body.raw(x, y, z, columns)

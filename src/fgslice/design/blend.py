@@ -55,6 +55,8 @@ class Blend(MaterialNode):
     coordinate_free = False
 
     def raw(self, x, y, z, columns: Columns) -> np.ndarray:
+        if columns.void_only and not self.can_be_void:  # only where void wins is asked: nowhere here
+            return columns.one_hot(np.shape(x)[0], None)
         if self._body.coordinate_free:  # the same fractions everywhere: their mean is themselves
             return normalized(self._body.raw(x, y, z, columns))
         n = np.shape(x)[0]

@@ -139,11 +139,17 @@ def _accepts_four(fn: Callable) -> bool:
 
 
 class Columns:
-    """Maps material names (lower case) to fraction columns; ``k`` columns in all."""
+    """Maps material names (lower case) to fraction columns; ``k`` columns in all.
 
-    def __init__(self, names: Sequence[str]) -> None:
+    ``void_only``: the fractions are wanted only to find where void wins (the void
+    margin): a union's child that cannot give void any fraction (:attr:`Node.can_be_void`)
+    then reads as the first material, without evaluating it.
+    """
+
+    def __init__(self, names: Sequence[str], void_only: bool = False) -> None:
         self.index = {name.lower(): i for i, name in enumerate(names)}
         self.k = len(names)
+        self.void_only = void_only
 
     def one_hot(self, n: int, name: str | None) -> np.ndarray:
         """``(n, k)`` rows of fraction 1 of ``name`` (the first material when None)."""
@@ -257,6 +263,11 @@ class Node:
         """Whether :meth:`raw` ignores the coordinates (then transforms need not map them)."""
         return self.children[0].coordinate_free
 
+    @functools.cached_property
+    def can_be_void(self) -> bool:
+        """Whether :meth:`raw` can give the material ``void`` a fraction anywhere."""
+        return bool(self.children) and self.children[0].can_be_void
+
 
 SAMPLED_CELL = 4
 """Fine cell of sampled sections, in ``spacing``: 0.4 mm at the default spacing."""
@@ -282,6 +293,10 @@ class Primitive(Node):
         self.material = material
 
     coordinate_free = True
+
+    @functools.cached_property
+    def can_be_void(self) -> bool:
+        return self.material is not None and self.material.lower() == VOID
 
     def raw(self, x, y, z, columns: Columns) -> np.ndarray:
         return columns.one_hot(np.shape(x)[0], self.material)
@@ -482,7 +497,11 @@ def _union_raw(children: Sequence[Node], x, y, z, columns: Columns) -> np.ndarra
     out = np.empty((np.shape(x)[0], columns.k))
     for i, child in enumerate(children):
         sel = np.flatnonzero(owner == i)
-        if sel.size:
+        if not sel.size:
+            continue
+        if columns.void_only and not child.can_be_void:
+            out[sel] = columns.one_hot(sel.size, None)
+        else:
             out[sel] = child.raw(x[sel], y[sel], z[sel], columns)
     return out
 
@@ -509,6 +528,10 @@ class Union(Node):
     @functools.cached_property
     def coordinate_free(self) -> bool:
         return len(self.children) == 1 and self.children[0].coordinate_free
+
+    @functools.cached_property
+    def can_be_void(self) -> bool:
+        return any(child.can_be_void for child in self.children)
 
 
 class Intersection(Node):
@@ -624,6 +647,10 @@ class Affine(Node):
     def coordinate_free(self) -> bool:
         return self._body.coordinate_free
 
+    @functools.cached_property
+    def can_be_void(self) -> bool:
+        return self._body.can_be_void
+
 
 class Translate(Affine):
     """``translate(dx, dy, dz)``: moves the children by the offset (mm)."""
@@ -684,6 +711,10 @@ class MaterialNode(Node):
 
     def _sections(self, zs, spacing):
         return self._body.sections(zs, spacing)
+
+    @functools.cached_property
+    def can_be_void(self) -> bool:
+        return self._body.can_be_void
 
 
 class Fgrade(MaterialNode):
@@ -767,6 +798,10 @@ class Fgrade(MaterialNode):
         return out
 
     coordinate_free = False
+
+    @functools.cached_property
+    def can_be_void(self) -> bool:
+        return any(name.lower() == VOID for name in self.materials)
 
     def raw(self, x, y, z, columns):
         return self.own_fractions(x, y, z, columns)
@@ -909,10 +944,16 @@ class NodeDesign(Design):
     def void_margin(self, x, y, z) -> np.ndarray:
         """Normalized void fraction minus the largest other fraction (broadcast shape):
         positive exactly where void wins and nothing is printed. Only for designs with void."""
-        f = self._per_chunk(x, y, z, normalize=True)
+        f = self._per_chunk(x, y, z, normalize=True, columns=self._void_columns)
         return f[..., -1] - f[..., :-1].max(axis=-1)
 
-    def _per_chunk(self, x, y, z, normalize: bool) -> np.ndarray:
+    @functools.cached_property
+    def _void_columns(self) -> Columns:
+        """:attr:`columns` for :meth:`void_margin`: parts that cannot be void are not evaluated."""
+        return Columns(list(self.columns.index), void_only=True)
+
+    def _per_chunk(self, x, y, z, normalize: bool, columns: Columns | None = None) -> np.ndarray:
+        columns = columns or self.columns
         x, y, z = (np.asarray(v, dtype=float) for v in (x, y, z))
         shape = np.broadcast_shapes(x.shape, y.shape, z.shape)
         root = self.root
@@ -920,11 +961,11 @@ class NodeDesign(Design):
             return self._broadcast_fractions(root, x, y, z, shape, normalize)
         x, y, z = np.broadcast_arrays(x, y, z)
         x, y, z = x.ravel(), y.ravel(), z.ravel()
-        out = np.empty((x.size, self.columns.k))
+        out = np.empty((x.size, columns.k))
         for s in _chunks(x.size):
-            raw = self.root.raw(x[s], y[s], z[s], self.columns)
+            raw = self.root.raw(x[s], y[s], z[s], columns)
             out[s] = normalized(raw) if normalize else raw
-        return out.reshape(shape + (self.columns.k,))
+        return out.reshape(shape + (columns.k,))
 
     def _broadcast_fractions(self, root: Fgrade, x, y, z, shape, normalize: bool) -> np.ndarray:
         """Fractions of a root fgrade (its own fractions, without walking the children), on
