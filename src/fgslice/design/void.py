@@ -7,7 +7,9 @@ in one plane: the margin ``f_void - max(f_others)`` is sampled on a regular grid
 samples). Boundaries of continuous fractions are placed within about
 ``spacing^2 |f''| / (8 |grad f|)``; a jump (``thresh``) is placed midway between the two
 samples around it, within ``spacing / 2``. Ties (margin exactly 0) are printed. The
-spacing is widened where needed to keep the grid within :data:`MAX_GRID_POINTS`.
+spacing is widened where needed to keep the grid within :data:`MAX_GRID_POINTS`. The
+margin is evaluated with :class:`~fgslice.design.nodes.Columns` ``void_only``: parts of
+the tree that cannot give void a fraction read as another material without evaluation.
 """
 
 from __future__ import annotations
