@@ -219,5 +219,6 @@ def test_moonraker_metadata_script_reads_the_fields(sliced, tmp_path):
     assert meta["filament_type"] == json.dumps(["PLA"] * 4)
     assert meta["extruder_colors"] == meta["filament_colors"] == values["extruder_colour"].split(";")
     assert meta["first_layer_extr_temp"] == settings.nozzle_temperature
+    assert meta["object_height"] == pytest.approx(4.0)  # the cylinder's, not the end G-code's lift
     assert meta["filament_change_count"] == stats["state_changes"]
     assert meta["estimated_time"] == pytest.approx(stats["estimated_time_s"], abs=1)

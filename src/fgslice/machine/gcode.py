@@ -10,8 +10,9 @@ at a time (nothing of earlier layers is kept), then a footer. Conventions:
   so every path's written E equals its exact E to 5e-6 mm, whatever was printed before.
 * coordinates have 3 decimals, trailing zeros dropped; moves that round to zero length
   are not written.
-* PrusaSlicer's annotations: ``;LAYER_CHANGE``, ``;Z:``, ``;HEIGHT:``, ``;TYPE:<role>``
-  and ``;WIDTH:`` when they change; every state change starts with ``;STATE:<c> <label>``.
+* PrusaSlicer's annotations: ``;BEFORE_LAYER_CHANGE`` and the layer's height (PrusaSlicer's
+  default ``before_layer_gcode``, from which Moonraker reads the object's height),
+  ``;LAYER_CHANGE``, ``;Z:``, ``;HEIGHT:``, ``;TYPE:<role>`` and ``;WIDTH:`` when they change; every state change starts with ``;STATE:<c> <label>``.
 * feed rates: external perimeters ``outer_wall_speed``, sparse infill ``infill_speed``,
   every other extrusion ``print_speed``; everything on layer 0 ``first_layer_speed``;
   travels ``travel_speed`` (``G0``), Z moves ``z_speed``; all mm/s, written as mm/min.
@@ -650,7 +651,8 @@ class GcodeWriter:
     def write_layer(self, plan: LayerPlan) -> None:
         """Write one layer: layer annotations, Z move, fan, state changes and paths."""
         s = self.settings
-        parts = [f";LAYER_CHANGE\n;Z:{fmt(plan.z, 3)}\n;HEIGHT:{fmt(plan.height, 3)}\n"]
+        z = fmt(plan.z, 3)
+        parts = [f";BEFORE_LAYER_CHANGE\n;{z}\n;LAYER_CHANGE\n;Z:{z}\n;HEIGHT:{fmt(plan.height, 3)}\n"]
         if self._extruded and not self._retracted and s.retract_length > 0:
             parts.append(self._retract_line())
             self._retracted = True
