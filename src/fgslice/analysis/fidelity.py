@@ -18,7 +18,6 @@ is imported by the functions that compute colors, not with this module.
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from collections.abc import Iterable, Sequence
@@ -29,6 +28,7 @@ from fgslice.analysis.simulate import FEATURES, SimulationResult, mixing_deposit
 from fgslice.colors import materials_rgba, srgb_to_linear
 from fgslice.design.base import Material
 from fgslice.errors import OutputError, SettingsError
+from fgslice.slicing.palette import palette_bin_size
 
 
 @dataclass(frozen=True)
@@ -87,17 +87,6 @@ def weighted_quantile(values: np.ndarray, weights: np.ndarray, q: float) -> floa
     cumulative = np.cumsum(weights[order])
     index = np.searchsorted(cumulative, q * cumulative[-1], side="left")
     return float(values[order][min(index, len(values) - 1)])
-
-
-def palette_bin_size(palette_size: int, n_materials: int) -> float:
-    """Width of one palette cell along a fraction axis: ``1/N`` for two materials,
-    ``1/m`` for simplex palettes of ``m`` divisions per axis (``N = m^(k-1)`` cells or fewer)."""
-    if palette_size < 1:
-        raise SettingsError(f"palette size must be >= 1, got {palette_size}")
-    if n_materials <= 2:
-        return 1.0 / palette_size
-    divisions = math.ceil(palette_size ** (1.0 / (n_materials - 1)) - 1e-9)
-    return 1.0 / divisions
 
 
 def mixture_lab(fractions: np.ndarray, materials: Sequence[Material]) -> np.ndarray:

@@ -212,6 +212,9 @@ class Node:
     """Base of all nodes: children, source location, cached bounds, section dispatch."""
 
     kind = "node"
+    valid_sections = False
+    """True when :meth:`sections` gives valid MultiPolygons of polygons of positive area
+    (a mesh's exact sections): a design's outlines then keep them as they are."""
 
     def __init__(self, children: Sequence[Node] = (), where: Where = NOWHERE) -> None:
         self.children = tuple(children)
@@ -469,6 +472,7 @@ class MeshShape(Primitive):
     """A triangle mesh in its own coordinates (see :mod:`fgslice.design.mesh`)."""
 
     kind = "mesh"
+    valid_sections = True
 
     def __init__(self, geometry, path: str, material: str | None = None, where: Where = NOWHERE) -> None:
         super().__init__(material, where)
@@ -1013,7 +1017,9 @@ class NodeDesign(Design):
         With void, each outline loses the region where void wins, traced on a grid of
         ``spacing`` mm (:func:`fgslice.design.void.void_region`)."""
         spacing = spacing or self.section_spacing
-        outlines = [as_multipolygon(g) for g in self.root.sections([float(z) for z in zs], spacing)]
+        outlines = self.root.sections([float(z) for z in zs], spacing)
+        if not self.root.valid_sections:
+            outlines = [as_multipolygon(g) for g in outlines]
         if self.has_void:
             from fgslice.design.void import without_void
 

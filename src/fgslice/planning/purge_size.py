@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fgslice.settings import Settings
+from fgslice.slicing.palette import palette_bin_size
 from fgslice.toolpaths.paths import bead_area
 
 
@@ -98,8 +99,6 @@ class PurgeSizer:
     def of(cls, settings: Settings, centers: np.ndarray) -> "PurgeSizer":
         """The purge lengths of a slice with ``settings`` on a palette of ``centers``
         (``(N, k)`` fractions)."""
-        from fgslice.analysis.fidelity import palette_bin_size
-
         centers = np.asarray(centers, dtype=np.float64)
         return cls(settings, centers, palette_bin_size(len(centers), centers.shape[1]))
 

@@ -20,7 +20,7 @@ and reversed on odd ones. ``docs/palette.md`` explains the choices.
 
 from __future__ import annotations
 
-from math import comb
+from math import ceil, comb
 
 import numpy as np
 
@@ -30,6 +30,17 @@ LETTERS = "ABCDEFGHIJKLMNOPQRSTUVWXYZ"
 
 KINDS = ("centers", "ends")
 """Palette kinds: cell centroids of equal cells (the paper's), or a lattice with the pure materials."""
+
+
+def palette_bin_size(palette_size: int, n_materials: int) -> float:
+    """Width of one palette cell along a fraction axis: ``1/N`` for two materials,
+    ``1/m`` for simplex palettes of ``m`` divisions per axis (``N = m^(k-1)`` cells or fewer)."""
+    if palette_size < 1:
+        raise SettingsError(f"palette size must be >= 1, got {palette_size}")
+    if n_materials <= 2:
+        return 1.0 / palette_size
+    divisions = ceil(palette_size ** (1.0 / (n_materials - 1)) - 1e-9)
+    return 1.0 / divisions
 
 
 def palette_size(n_materials: int, m: int) -> int:

@@ -121,10 +121,12 @@ def anchor(areas: InnerAreas, under_above, margin: float, min_width: float) -> I
             sparse, changed = shapely.difference(sparse, near), True
     if min_width > 0 and not sparse.is_empty:
         opened = shapely.buffer(shapely.buffer(sparse, -min_width / 2, join_style="mitre"), min_width / 2, join_style="mitre")
-        parts = shapely.get_parts(shapely.difference(sparse, opened))
-        parts = parts[shapely.area(parts) >= NARROW_MIN_AREA]
-        if len(parts):
-            sparse, changed = shapely.difference(sparse, shapely.multipolygons(parts)), True  # parts of one overlay: disjoint
+        parts = shapely.get_parts(sparse if opened.is_empty else shapely.difference(sparse, opened))
+        narrow = parts[shapely.area(parts) >= NARROW_MIN_AREA]
+        if opened.is_empty and len(narrow) == len(parts):
+            sparse, changed = _EMPTY, True  # all of it is narrow
+        elif len(narrow):
+            sparse, changed = shapely.difference(sparse, shapely.multipolygons(narrow)), True  # parts of one overlay: disjoint
     if not changed:
         return areas
     return InnerAreas(top, shapely.difference(under_above, sparse), sparse)
