@@ -9,7 +9,8 @@ version and the ratio current / base (below 1 is faster).
 
 Run: ``.venv/bin/python benchmarks/compare_commits.py BASE [--rows vase,palette_s1_c16] [--repeat 3] [--jobs 2]``
 (rows as in ``run_all.py --list``, plus ``single_benchy``: the single-material Benchy of
-the ``compare`` row).
+the ``compare`` row, and the ``implicit`` rows by name: ``function_vase``, ``gyroid``,
+``three_meshes``).
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ DEFAULT_ROWS = "vase,benchy,palette_s1_c12,palette_s1_c16,palette_s1_c16_z10,pal
 def rows_by_name(workdir: Path) -> dict[str, tuple[Path, tuple[str, ...]]]:
     """Design and arguments of every row name."""
     rows = {r.name: (r.design, r.args) for r in run_all.ROWS}
+    rows.update({name: (design, args) for name, design, args, *_ in run_all.implicit_rows(workdir)[1:]})
     design = workdir / "benchy_single.vcad"
     design.write_text(f"mesh({json.dumps(str(run_all.BENCHY_STL))});\n")
     rows["single_benchy"] = (design, run_all.SINGLE_BENCHY_ARGS)
