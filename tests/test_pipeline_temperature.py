@@ -184,3 +184,16 @@ def test_designs_without_a_temperature_attribute_record_no_levels(tmp_path):
     text = out.read_text()
     assert "temperature_levels" not in text and "temperature_step" not in text
     assert "@" not in "".join(line for line in text.splitlines() if line.startswith(";STATE:"))
+
+
+def test_check_names_the_levels_the_slice_uses(tmp_path):
+    from click.testing import CliRunner
+
+    from fgslice.cli import main
+
+    result = CliRunner().invoke(main, ["check", str(EXAMPLES / "temperature_gradient.vcad"), "--set", "temperature_step=2"])
+    assert result.exit_code == 0, result.output
+    line = next(text for text in result.output.splitlines() if text.startswith("temperature levels: "))
+    _, _, stats, _ = _slice(GRADED, tmp_path, strategy=2, temperature_step=2)
+    assert line.startswith("temperature levels: " + ", ".join(f"{t:g}" for t in stats["temperature_levels"]) + " C")
+    assert stats["temperature_levels"] == [210.0, 212.0, 214.0, 216.0, 218.0, 220.0]

@@ -193,8 +193,19 @@ def check_command(design, materials, profile, sets):
     from fgslice.compat import open_design as load_design
     from fgslice.design import check_design, format_report
 
-    report = check_design(load_design(design, materials), settings=_settings(profile, sets))
+    settings = _settings(profile, sets)
+    loaded = load_design(design, materials)
+    report = check_design(loaded, settings=settings)
     click.echo(format_report(report))
+    if report.usable and "temperature" in report.attribute_cover:
+        from fgslice.machine.grading import checked_attributes
+        from fgslice.slicing.states import state_levels
+
+        fields = checked_attributes(loaded, settings)  # the slicer's own check: the same levels
+        levels = state_levels(fields.ranges, fields.cover, settings)
+        if levels is not None:
+            click.echo(f"temperature levels: {', '.join(f'{t:g}' for t in levels)} C (temperature_step "
+                       f"{settings.temperature_step:g} C), each with every material color")
     sys.exit(0 if report.usable else 1)
 
 

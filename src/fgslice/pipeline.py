@@ -325,7 +325,8 @@ def slice_to_gcode(
     started = time.perf_counter()
     jobs = default_jobs() if jobs is None else max(1, jobs)
     attributes = checked_attributes(design, settings)
-    palette = make_palette(len(design.materials), settings.colors, settings.palette, state_levels(attributes, settings))
+    levels = state_levels(attributes.ranges, attributes.cover, settings) if attributes is not None else None
+    palette = make_palette(len(design.materials), settings.colors, settings.palette, levels)
     dialect = dialect_for(settings, palette)
     placement = place_design(design, settings)
     layers = layer_heights(design, settings)

@@ -130,17 +130,19 @@ class StatePalette:
         return f"StatePalette({self.materials!r}, levels={self.levels.tolist()})"
 
 
-def state_levels(attributes, settings) -> np.ndarray | None:
+def state_levels(ranges: dict, cover: dict, settings) -> np.ndarray | None:
     """The temperature levels of a slice (:func:`temperature_levels`), None when the design
-    (checked :class:`~fgslice.design.attributes.AttributeFields`) grades no temperature.
+    grades no temperature; ``ranges`` and ``cover``: each attribute's ``(min, max)`` over
+    the part and the share of the part it covers, as the check finds them
+    (:class:`~fgslice.design.check.CheckReport`), by name.
 
     They span the attribute's range over the part, and ``nozzle_temperature`` when the
     attribute does not cover the whole part."""
-    if attributes is None or "temperature" not in attributes.names:
+    if "temperature" not in cover:
         return None
     default = float(settings.nozzle_temperature)
-    low, high = attributes.ranges.get("temperature", (default, default))
-    if attributes.cover.get("temperature", 0.0) < 1.0:
+    low, high = ranges.get("temperature", (default, default))
+    if cover["temperature"] < 1.0:
         low, high = min(low, default), max(high, default)
     limits = (settings.min_extrude_temperature, settings.max_nozzle_temperature)
     return temperature_levels(low, high, settings.temperature_step, limits)
