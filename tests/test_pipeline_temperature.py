@@ -76,7 +76,9 @@ def test_mixing_hotend_commands_the_temperature_and_the_mixture_of_the_field(tmp
 
 
 def test_toolchanger_sets_each_tool_before_it_is_picked_up(tmp_path):
-    settings, program, stats, out = _slice(GRADED, tmp_path, profile="toolchanger", colors=4, strategy=1)
+    settings, program, stats, out = _slice(GRADED, tmp_path, profile="toolchanger", colors=4, strategy=1,
+                                           temperature_lead_s=2)
+    assert any(w.startswith("temperature_lead_s is not used on a toolchanger") for w in stats["warnings"])
     lines = out.read_text().splitlines()
     picks = [i for i, line in enumerate(lines) if line[:1] == "T" and line[1:].isdigit()]
     assert picks

@@ -442,6 +442,9 @@ def slice_to_gcode(
     ) + _sliver_warning(reassigned, total, settings)
     if settings.strategy == 2 and attributes is not None and "infill_density" in attributes.names:
         stats["warnings"].append("strategy 2 fills every face densely: the infill_density attribute is ignored")
+    if isinstance(palette, StatePalette) and settings.dialect == "toolchanger" and settings.temperature_lead_s > 0:
+        stats["warnings"].append("temperature_lead_s is not used on a toolchanger: each tool is set to its "
+                                 "temperature when it is picked up (M104 T<n> before T<n>)")
     stats.update(
         {
             "layers": total,
