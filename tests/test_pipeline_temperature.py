@@ -199,3 +199,14 @@ def test_check_names_the_levels_the_slice_uses(tmp_path):
     _, _, stats, _ = _slice(GRADED, tmp_path, strategy=2, temperature_step=2)
     assert line.startswith("temperature levels: " + ", ".join(f"{t:g}" for t in stats["temperature_levels"]) + " C")
     assert stats["temperature_levels"] == [210.0, 212.0, 214.0, 216.0, 218.0, 220.0]
+
+
+def test_modelled_purges_are_those_of_the_material_changes(tmp_path):
+    plain = GRADED.replace('attribute("temperature", "215 + 0.25*y")', "union()")
+    assert plain != GRADED
+    _, _, graded, _ = _slice(GRADED, tmp_path, strategy=1, purge_size="model")
+    _, _, alone, _ = _slice(plain, tmp_path, name="plain.gcode", strategy=1, purge_size="model")
+    assert graded["state_changes"] > alone["state_changes"]
+    for key in ("purge_tolerance", "purge_mm3", "tower_mm3"):
+        assert graded[key] == alone[key], key
+    assert graded["purge_tolerance"] == pytest.approx(0.1 / 4)  # a tenth of the 4-color palette's bin

@@ -342,7 +342,7 @@ def slice_to_gcode(
 
     with contextlib.ExitStack() as cleanup:
         tower = None
-        sizer = PurgeSizer.of(settings, palette.centers)
+        sizer = PurgeSizer.for_palette(settings, palette)
         if settings.strategy == 1:
             batches = [range(i, min(i + SECTION_BATCH, len(layers))) for i in range(0, len(layers), SECTION_BATCH)]
             job.outlines = list(itertools.chain.from_iterable(

@@ -329,7 +329,7 @@ def insert_purges(
             stats.extruded_mm3 += _plan_volume(plan)
             yield plan
         return
-    sizer = sizer or PurgeSizer.of(settings, palette.centers)
+    sizer = sizer or PurgeSizer.for_palette(settings, palette)
     state: int | None = None
     made: dict[tuple, tuple[Path, float]] = {}  # tower paths and volumes by what makes them: layers repeat them
     since = 0.0
@@ -404,7 +404,7 @@ class _LayerPurges:
             marks = [i for i, step in enumerate(plan.steps) if isinstance(step, SetState)]
             colors = [plan.steps[i].color for i in marks]
             n_steps = len(plan.steps)
-        start, changes = state, _count_changes(colors, state, sizer.centers)
+        start, changes = state, _count_changes(colors, state, sizer)
         ends = marks + [n_steps]
         if settings.purge_into_infill:
             roles, volumes = _step_roles_and_volumes(plan, np.arange(n_steps))
@@ -626,12 +626,12 @@ def _plan_volume(plan: LayerPlan) -> float:
     return float(np.dot(packed.lengths[ref], area)) + float(_volumes(packed.extras).sum())
 
 
-def _count_changes(colors: list[int], state: int | None, centers: np.ndarray) -> int:
-    """How many of the layer's SetStates (their ``colors`` in order) change the mixture
-    (``centers``, (N, k)), starting from ``state``: a change of temperature alone
-    purges nothing."""
-    return sum(a != b and (a is None or not np.array_equal(centers[a], centers[b]))
-               for a, b in zip([state] + colors[:-1], colors))
+def _count_changes(colors: list[int], state: int | None, sizer: PurgeSizer) -> int:
+    """How many of the layer's SetStates (their ``colors`` in order) change the material
+    color (:meth:`PurgeSizer.material`), starting from ``state``: a change of temperature
+    alone purges nothing."""
+    materials = [sizer.material(c) for c in [state] + colors]
+    return sum(a != b for a, b in zip(materials[:-1], materials[1:]))
 
 
 def _volumes(paths: list[Path]) -> np.ndarray:

@@ -38,6 +38,7 @@ import numpy as np
 
 from fgslice.settings import Settings
 from fgslice.slicing.palette import palette_bin_size
+from fgslice.slicing.states import StatePalette, material_palette
 from fgslice.toolpaths.paths import bead_area
 
 
@@ -86,21 +87,36 @@ class PurgeSizer:
     Attributes:
         settings: the slice's settings (``purge_size``, ``purge_tolerance``,
             ``melt_volume_mm3``, ``mixing_share``, ``tau_s``, speeds, bead).
-        centers: ``(N, k)`` palette centers (compositions of the colors).
+        centers: ``(N, k)`` palette centers (compositions of the material colors).
         bin_size: the palette bin (fraction) the default tolerance is a tenth of.
+        material_of: with temperature states, the material color (row of ``centers``) of
+            each state the plans name; None when the plans name material colors.
     """
 
     settings: Settings
     centers: np.ndarray
     bin_size: float
+    material_of: np.ndarray | None = None
     _made: dict = field(default_factory=dict, repr=False)
 
     @classmethod
-    def of(cls, settings: Settings, centers: np.ndarray) -> "PurgeSizer":
+    def of(cls, settings: Settings, centers: np.ndarray, material_of: np.ndarray | None = None) -> "PurgeSizer":
         """The purge lengths of a slice with ``settings`` on a palette of ``centers``
-        (``(N, k)`` fractions)."""
+        (``(N, k)`` fractions of the material colors); ``material_of``: see the class."""
         centers = np.asarray(centers, dtype=np.float64)
-        return cls(settings, centers, palette_bin_size(len(centers), centers.shape[1]))
+        return cls(settings, centers, palette_bin_size(len(centers), centers.shape[1]), material_of)
+
+    @classmethod
+    def for_palette(cls, settings: Settings, palette) -> "PurgeSizer":
+        """:meth:`of` the material colors of ``palette`` (a
+        :class:`~fgslice.slicing.palette.Palette` or a
+        :class:`~fgslice.slicing.states.StatePalette`, whose states it maps to them)."""
+        states = isinstance(palette, StatePalette)
+        return cls.of(settings, material_palette(palette).centers, palette.material_of if states else None)
+
+    def material(self, color: int | None) -> int | None:
+        """The material color (row of :attr:`centers`) of a state the plans name."""
+        return color if color is None or self.material_of is None else int(self.material_of[color])
 
     @property
     def model(self) -> bool:
@@ -156,10 +172,11 @@ class PurgeSizer:
     def length(self, old: int | None, new: int, height: float, layer_index: int) -> float:
         """Purge length, mm of bead of ``height``, for the change from color ``old``
         (None: unknown, the first change of a print) to ``new`` on layer ``layer_index``;
-        0 between colors of the same mixture (a change of temperature alone,
+        0 between states of the same material color (a change of temperature alone,
         :class:`~fgslice.slicing.states.StatePalette`)."""
         s = self.settings
-        if old is not None and old != new and np.array_equal(self.centers[old], self.centers[new]):
+        old, new = self.material(old), self.material(new)
+        if old == new:
             return 0.0
         if not self.model:
             return purge_length(s.melt_volume_mm3, s.bead_width, height)
