@@ -228,3 +228,24 @@ def test_thresh_grade_of_three_materials_prints_only_pure_materials(tmp_path):
     # the bands between the materials' regions went to a neighbour: every move is pure
     assert np.allclose(mix.max(axis=1), 1.0, atol=1e-4)
     assert {int(np.argmax(m)) for m in mix} == {0, 1, 2}
+
+
+@pytest.mark.parametrize(("k", "n", "q"), [(2, 2, 1), (2, 5, 4), (2, 11, 10), (3, 6, 2), (3, 10, 3), (4, 10, 2)])
+def test_the_bin_of_an_ends_palette_is_its_lattice_spacing(k, n, q):
+    from fgslice.slicing.palette import palette_bin_size
+
+    palette = Palette(k, n, "ends")
+    assert palette.subdivisions == q
+    assert palette_bin_size(n, k, "ends") == pytest.approx(1 / q)
+    # the nearest lattice point is within half a spacing along every fraction of a pair
+    points = _simplex_points(2000, k, seed=k * n)
+    worst = np.abs(points - palette.centers[palette.color_of(points)]).max()
+    assert worst <= 1 / q + 1e-9 and worst > 0.4 / q
+
+
+def test_modelled_purges_take_a_tenth_of_the_lattice_spacing(tmp_path):
+    design = api.design(api.fgrade(["x/40 + 0.5", "0.5 - x/40"], ["blue", "yellow"], api.rectprism(40, 20, 1)))
+    settings = load_settings(None, {"palette": "ends", "colors": "5", "strategy": "1", "purge_size": "model"})
+    stats = slice_to_gcode(design, settings, tmp_path / "ends.gcode", jobs=1).stats
+    assert stats["purge_tolerance"] == pytest.approx(0.1 / 4)
+    assert 0 < stats["simulated_within_half_bin"] <= 1

@@ -78,7 +78,8 @@ def predicted_within_half_bin(result: SimulationResult, palette_size: int) -> fl
     if not part.any():
         raise SettingsError("no extrusion inside the part to measure", hint="check the design and the placement offset")
     error = composition_error(result.deposited[part], result.designed[part])
-    return within_half_bin(error, result.volume[part], palette_bin_size(palette_size, len(result.materials)))
+    bin_size = palette_bin_size(palette_size, len(result.materials), result.palette_kind)
+    return within_half_bin(error, result.volume[part], bin_size)
 
 
 def weighted_quantile(values: np.ndarray, weights: np.ndarray, q: float) -> float:
@@ -127,15 +128,17 @@ def fidelity_of(
     volume: np.ndarray,
     materials: Sequence[Material],
     palette_size: int | None = None,
+    palette_kind: str = "centers",
 ) -> FidelityReport:
-    """Fidelity of deposited against designed fractions ``(n, k)`` weighted by ``volume``."""
+    """Fidelity of deposited against designed fractions ``(n, k)`` weighted by ``volume``
+    (``palette_size`` colors of ``palette_kind`` give the half-bin share)."""
     if len(volume) == 0:
         raise SettingsError("no extrusion inside the part to measure", hint="check the design and the placement offset")
     error = composition_error(deposited, designed)
     weights = np.asarray(volume, dtype=float)
     total = float(weights.sum())
     delta_e = composition_delta_e(deposited, designed, materials)
-    bin_size = palette_bin_size(palette_size, len(materials)) if palette_size else None
+    bin_size = palette_bin_size(palette_size, len(materials), palette_kind) if palette_size else None
     within = within_half_bin(error, weights, bin_size) if bin_size else None
     return FidelityReport(
         segments=len(weights),
@@ -157,7 +160,8 @@ def fidelity(result: SimulationResult, palette_size: int | None = None) -> Fidel
     """
     size = palette_size or result.palette_size
     part = result.part
-    return fidelity_of(result.deposited[part], result.designed[part], result.volume[part], result.materials, size)
+    return fidelity_of(result.deposited[part], result.designed[part], result.volume[part], result.materials, size,
+                       result.palette_kind)
 
 
 def fidelity_by_palette(

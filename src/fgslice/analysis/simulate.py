@@ -328,6 +328,7 @@ class SimulationResult:
         palette_size: N from the G-code's ``; colors = N`` comment, if any.
         model: the model used.
         feature: ``(n,)`` index into :data:`FEATURES` (None: unknown).
+        palette_kind: the palette's kind (``centers`` or ``ends``), for its bin size.
     """
 
     deposited: np.ndarray
@@ -343,6 +344,7 @@ class SimulationResult:
     palette_size: int | None
     model: MeltModel
     feature: np.ndarray | None = None
+    palette_kind: str = "centers"
 
 
 def designed_at(design: Design, offset: tuple[float, float, float], points: np.ndarray, height: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -370,6 +372,7 @@ def simulate_trace(
     model: MeltModel,
     *,
     palette_size: int | None = None,
+    palette_kind: str = "centers",
     part_tolerance_mm: float = 0.2,
 ) -> SimulationResult:
     """Simulate a trace and compare with the design placed at ``offset``.
@@ -397,6 +400,7 @@ def simulate_trace(
         palette_size=palette_size,
         model=model,
         feature=None if trace.feature is None else trace.feature[extruding],
+        palette_kind=palette_kind,
     )
 
 
@@ -671,7 +675,8 @@ def simulate(
     # a toolchanger's tool n prints material color n (whatever the temperature level)
     centers = material_palette(palette).centers if settings.dialect == "toolchanger" else palette.centers
     trace = trace_from_chunks(chunks, settings, centers, travels=model.kind == "thermal")
-    return simulate_trace(trace, design, offset, model, palette_size=size, part_tolerance_mm=settings.bead_width / 2)
+    return simulate_trace(trace, design, offset, model, palette_size=size, palette_kind=palette.kind,
+                          part_tolerance_mm=settings.bead_width / 2)
 
 
 def _header_of(gcode) -> GcodeHeader:

@@ -511,7 +511,7 @@ def _fitting_alternatives(part_footprint: shapely.Geometry, changes: int, n_laye
     (bisected between the current one and the whole composition range) and the largest
     palette at the current tolerance rule (bisected; a layer then spans at most as many
     changes as colors)."""
-    from fgslice.slicing.palette import Palette, palette_size
+    from fgslice.slicing.palette import Palette, lattice_size, palette_size
 
     settings = sizer.settings
 
@@ -538,12 +538,13 @@ def _fitting_alternatives(part_footprint: shapely.Geometry, changes: int, n_laye
         found.append(f"--set purge_tolerance={fitting:.2g} fits ({fitting / bin_:.2g} of a palette bin; "
                      f"the current {tol:.3g} is {tol / bin_:.2g}, and fidelity falls as it grows)")
     k = sizer.centers.shape[1]
-    sizes = sorted({palette_size(k, m) for m in range(1, len(sizer.centers) + 1)} & set(range(2, len(sizer.centers))))
+    size_of = lattice_size if settings.palette == "ends" else palette_size
+    sizes = sorted({size_of(k, m) for m in range(1, len(sizer.centers) + 1)} & set(range(2, len(sizer.centers))))
     low, high = -1, len(sizes)  # sizes[low] fits (or none), sizes[high] does not
     while high - low > 1:
         mid = (low + high) // 2
         smaller = msgspec.structs.replace(settings, colors=sizes[mid])
-        if fits(smaller, Palette(k, sizes[mid]).centers, min(changes, sizes[mid])):
+        if fits(smaller, Palette(k, sizes[mid], settings.palette).centers, min(changes, sizes[mid])):
             low = mid
         else:
             high = mid

@@ -104,7 +104,7 @@ class PurgeSizer:
         """The purge lengths of a slice with ``settings`` on a palette of ``centers``
         (``(N, k)`` fractions of the material colors); ``material_of``: see the class."""
         centers = np.asarray(centers, dtype=np.float64)
-        return cls(settings, centers, palette_bin_size(len(centers), centers.shape[1]), material_of)
+        return cls(settings, centers, palette_bin_size(len(centers), centers.shape[1], settings.palette), material_of)
 
     @classmethod
     def for_palette(cls, settings: Settings, palette) -> "PurgeSizer":

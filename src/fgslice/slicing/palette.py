@@ -32,11 +32,14 @@ KINDS = ("centers", "ends")
 """Palette kinds: cell centroids of equal cells (the paper's), or a lattice with the pure materials."""
 
 
-def palette_bin_size(palette_size: int, n_materials: int) -> float:
+def palette_bin_size(palette_size: int, n_materials: int, kind: str = "centers") -> float:
     """Width of one palette cell along a fraction axis: ``1/N`` for two materials,
-    ``1/m`` for simplex palettes of ``m`` divisions per axis (``N = m^(k-1)`` cells or fewer)."""
+    ``1/m`` for simplex palettes of ``m`` divisions per axis (``N = m^(k-1)`` cells or
+    fewer); ``kind = "ends"``: the lattice spacing ``1/q`` (``1/(N-1)`` for two materials)."""
     if palette_size < 1:
         raise SettingsError(f"palette size must be >= 1, got {palette_size}")
+    if kind == "ends" and n_materials >= 2 and palette_size >= 2:
+        return 1.0 / _lattice_divisions(n_materials, palette_size)
     if n_materials <= 2:
         return 1.0 / palette_size
     divisions = ceil(palette_size ** (1.0 / (n_materials - 1)) - 1e-9)
