@@ -136,11 +136,12 @@ def test_thumbnails_do_not_depend_on_how_fast_the_design_evaluates():
     assert thumbnail_png(Slow(), 48, 32) == thumbnail_png(GRADIENT, 48, 32)
 
 
-def test_thumbnails_of_meshes_drawn_from_the_slice_layers(tmp_path):
-    """Strategy 1 hands the thumbnails its layer outlines: three meshes of one material
-    each are drawn from them with the silhouette and the colors of a render from the
-    design's own sections, each body in its material's color, without building any
-    mesh's 3-D distance or whole tables."""
+@pytest.mark.parametrize("strategy", ["1", "2"])
+def test_thumbnails_of_meshes_drawn_from_the_slice_layers(tmp_path, strategy):
+    """The thumbnails get the layer outlines (strategy 1's own; strategy 2 sections a mesh
+    design for them): three meshes of one material each are drawn from them with the
+    silhouette and the colors of a render from the design's own sections, each body in
+    its material's color, without building any mesh's 3-D distance or whole tables."""
     import trimesh
 
     from fgslice.design.language import parse_design
@@ -152,7 +153,7 @@ def test_thumbnails_of_meshes_drawn_from_the_slice_layers(tmp_path):
         box.export(tmp_path / f"mesh_{name}.stl")
     text = 'union() { mesh("mesh_a.stl", "red"); mesh("mesh_b.stl", "green"); mesh("mesh_c.stl", "blue"); }'
     design = parse_design(text, file=tmp_path / "part.vcad")
-    settings = load_settings(None, {"strategy": "1", "channels": "3", "skirt_loops": "0", "thumbnails": "220x124"})
+    settings = load_settings(None, {"strategy": strategy, "channels": "3", "skirt_loops": "0", "thumbnails": "220x124"})
     seen = {}
 
     def render(layers):
@@ -161,7 +162,9 @@ def test_thumbnails_of_meshes_drawn_from_the_slice_layers(tmp_path):
 
     out = tmp_path / "part.gcode"
     slice_to_gcode(design, settings, out, jobs=1, thumbnails=render)
-    built = [n for m in design.meshes for n in ("_whole", "_distance", "_ray_counters") if n in vars(m.geometry)]
+    # (strategy 2's own sections build the whole-mesh tables, before the workers fork)
+    tables = ("_distance", "_ray_counters") + (("_whole",) if strategy == "1" else ())
+    built = [n for m in design.meshes for n in tables if n in vars(m.geometry)]
     assert built == []
     assert "; thumbnail begin 220x124" in out.read_text()
 

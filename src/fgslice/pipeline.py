@@ -308,7 +308,8 @@ def slice_to_gcode(
         scheduler: a Dask scheduler address to run per-layer stages on instead.
         comments: extra ``; key = value`` header lines.
         thumbnails: PNG thumbnails ``(png, width, height)`` to embed, or a function that
-            renders them from the slice's layer outlines (strategy 1; None in strategy 2),
+            renders them from the slice's layer outlines (None: from the design itself, in
+            strategy 2 for a design without meshes; :func:`_thumbnail_render`),
             e.g. ``lambda layers: render_thumbnails(design, settings, layers=layers)``:
             called once the outlines exist, with workers in a process of its own alongside
             the first layers (serial work the other cores would wait for), else here.
@@ -348,7 +349,7 @@ def slice_to_gcode(
             job.outlines = list(itertools.chain.from_iterable(
                 map_ordered(_section_task, job, batches, jobs=jobs, scheduler=scheduler, probe=True)))
         if callable(thumbnails):
-            render = functools.partial(thumbnails, _thumbnail_layers(job) if settings.strategy == 1 else None)
+            render = _thumbnail_render(job, thumbnails)
             thumbnails = _start_thumbnails(render, cleanup) if jobs > 1 or scheduler else tuple(render())
         if settings.strategy == 1:
             if settings.purge and palette.size > 1:
@@ -505,11 +506,29 @@ def _prepare_for_workers() -> None:
     importlib.import_module("numpy.ma")
 
 
-def _thumbnail_layers(job: SliceJob) -> LayerOutlines:
-    """The strategy-1 layer outlines of ``job`` (bed frame) for the thumbnails."""
+def _thumbnail_render(job: SliceJob, thumbnails: Callable[[LayerOutlines | None], Thumbnails]) -> Callable[[], Thumbnails]:
+    """``thumbnails`` bound to what it draws the part from: strategy 1's layer outlines;
+    in strategy 2, a mesh design's outlines, sectioned where the render runs (exact and
+    batched for meshes, a fraction of the 3-D distances the design itself would need);
+    else the design itself (None)."""
+    if job.settings.strategy == 1:
+        return functools.partial(thumbnails, _thumbnail_layers(job, job.outlines))
+    if getattr(job.design, "meshes", ()):
+        return functools.partial(_sectioned_thumbnails, job, thumbnails)
+    return functools.partial(thumbnails, None)
+
+
+def _sectioned_thumbnails(job: SliceJob, thumbnails: Callable[[LayerOutlines | None], Thumbnails]) -> Thumbnails:
+    """``thumbnails`` of every layer's outline, sectioned here as strategy 1 does."""
+    n = len(job.layers)
+    outlines = [o for i in range(0, n, SECTION_BATCH) for o in _section_task(job, range(i, min(i + SECTION_BATCH, n)))]
+    return thumbnails(_thumbnail_layers(job, outlines))
+
+
+def _thumbnail_layers(job: SliceJob, outlines: Sequence[shapely.Geometry]) -> LayerOutlines:
+    """The layer ``outlines`` of ``job`` (bed frame, one per layer) for the thumbnails."""
     _, tops, heights = np.asarray(job.layers, dtype=float).T
-    return LayerOutlines(mid=tops - heights / 2, height=heights, outlines=job.outlines,
-                         offset=tuple(job.placement.offset))
+    return LayerOutlines(mid=tops - heights / 2, height=heights, outlines=outlines, offset=tuple(job.placement.offset))
 
 
 def _start_thumbnails(render: Callable[[], Thumbnails], cleanup: contextlib.ExitStack) -> Callable[[], tuple]:
