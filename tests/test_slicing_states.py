@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from fgslice.errors import SettingsError
+from fgslice.machine.dialects import Toolchanger
 from fgslice.machine.flow import flow_percent
 from fgslice.machine.state_dialect import dialect_for
 from fgslice.planning.plan import LayerPlan, SetState
@@ -97,13 +98,9 @@ def test_toolchanger_sets_the_tool_before_picking_it():
     d = dialect_for(settings, _palette())
     assert d.change_commands(2, 3)[1:] == ["M104 T1 S220", "T1"]
     assert d.change_commands(3, 4)[1:] == ["M104 T1 S215"]
-    assert d.change_time(3, 4) == 0 and d.change_time(2, 3) == settings_change_time(settings)
+    assert d.change_time(3, 4) == 0 and d.change_time(2, 3) == Toolchanger.change_time_s > 0
     with pytest.raises(SettingsError, match="6 colors need 6 tools"):
         dialect_for(settings, _palette(colors=6))
-
-
-def settings_change_time(settings):
-    return dialect_for(settings, Palette(2, 4)).change_time_s
 
 
 def _line(x0, x1, color):

@@ -12,7 +12,8 @@ at a time (nothing of earlier layers is kept), then a footer. Conventions:
   are not written.
 * PrusaSlicer's annotations: ``;BEFORE_LAYER_CHANGE`` and the layer's height (PrusaSlicer's
   default ``before_layer_gcode``, from which Moonraker reads the object's height),
-  ``;LAYER_CHANGE``, ``;Z:``, ``;HEIGHT:``, ``;TYPE:<role>`` and ``;WIDTH:`` when they change; every state change starts with ``;STATE:<c> <label>``.
+  ``;LAYER_CHANGE``, ``;Z:``, ``;HEIGHT:``, ``;TYPE:<role>`` and ``;WIDTH:`` when they
+  change; every state change starts with ``;STATE:<c> <label>``.
 * feed rates: external perimeters ``outer_wall_speed``, sparse infill ``infill_speed``,
   every other extrusion ``print_speed``; everything on layer 0 ``first_layer_speed``;
   travels ``travel_speed`` (``G0``), Z moves ``z_speed``; all mm/s, written as mm/min.

@@ -12,10 +12,11 @@ commands of the parts that change, after the ``;STATE:<color> <label>`` comment:
 
 With a ``flow_model`` (foaming filament, :mod:`fgslice.machine.flow`) the change ends
 with ``M221 S<flow>``, the flow of the temperature sent, as the temperature dialect
-writes it (after the tool change: it applies to the active tool in Marlin and Klipper). Temperatures and flows are whole numbers (Marlin keeps
-integer targets and percentages). ``M104`` does not wait:
-the nozzle follows while printing; ``temperature_lead_s`` issues the mixing hotend's
-temperature changes ahead of the mixture's (:mod:`fgslice.planning.state_leads`).
+writes it (after the tool change: it applies to the active tool in Marlin and Klipper).
+Temperatures and flows are whole numbers (Marlin keeps integer targets and percentages).
+``M104`` does not wait: the nozzle follows while printing; ``temperature_lead_s`` issues
+the mixing hotend's temperature changes ahead of the mixture's
+(:mod:`fgslice.planning.state_leads`).
 The temperature (foaming) and template dialects already give the temperature another
 meaning or none, and refuse these palettes.
 """
@@ -53,9 +54,6 @@ class StateDialect(Dialect):
     def _tool(self) -> bool:
         return self.base.name == "toolchanger"
 
-    def _target(self, color: int) -> int:
-        return round(float(self.palette.temperatures[color]))
-
     def _commands(self, color: int) -> list[str]:
         return self._change(None, color)
 
@@ -76,11 +74,12 @@ class StateDialect(Dialect):
         new_level = previous is None or p.level_of[previous] != p.level_of[color]
         new_material = previous is None or p.material_of[previous] != material
         heat = new_level or (new_material and self._tool())
+        target = round(float(p.temperatures[color]))
         tool = f"T{material} " if self._tool() else ""
-        lines = [f"M104 {tool}S{self._target(color)}"] if heat else []
+        lines = [f"M104 {tool}S{target}"] if heat else []
         lines += self.base._commands(material) if new_material else []
         if heat and self.settings.flow_model != "none":
-            lines.append(f"M221 S{round(float(flow_percent(self.settings.flow_model, float(self._target(color)))))}")
+            lines.append(f"M221 S{round(float(flow_percent(self.settings.flow_model, float(target))))}")
         return lines
 
     def start_commands(self) -> list[str]:

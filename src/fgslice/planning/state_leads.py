@@ -9,8 +9,7 @@ compensated by ``lookahead_mm`` of extruded path, and the nozzle's heating, comp
 into absolute states in printing order: a mixture part sets the material color of the
 current state, a temperature part its level (the print's first state, whose other part
 is not known yet, is commanded whole where its earlier part goes). The writer thus sees
-plain SetStates of
-existing colors, and its dialect writes only the part that changed
+plain SetStates of existing colors, and its dialect writes only the part that changed
 (:mod:`fgslice.machine.state_dialect`).
 """
 

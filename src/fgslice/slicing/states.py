@@ -103,9 +103,7 @@ class StatePalette:
         position = ((v[..., -1] - self.levels[0]) / self.step + 0.5) / len(self.levels)
         return np.concatenate([self.materials.band_values(v[..., :-1]), np.clip(position, 0.0, 1.0)[..., None]], axis=-1)
 
-    def order_for_layer(self, layer_index: int) -> np.ndarray:
-        """Colors in traversal order for layer ``layer_index``: reversed on odd layers."""
-        return self.order[::-1].copy() if layer_index % 2 else self.order.copy()
+    order_for_layer = Palette.order_for_layer
 
     def color_of(self, values: np.ndarray) -> np.ndarray:
         """Color index of fractions with a temperature column ``(..., k + 1)``."""
@@ -163,17 +161,23 @@ def header_palette(n_materials: int, colors: int, kind: str | None, levels_text:
     Raises:
         SettingsError: the values make no palette.
     """
-    levels = None
-    if levels_text:
-        try:
-            levels = np.array([float(v) for v in levels_text.split(",")])
-        except ValueError:
-            levels = np.array([np.nan])
-        steps = np.diff(levels)
-        if not np.isfinite(levels).all() or (len(levels) > 1 and not (np.allclose(steps, steps[0]) and steps[0] > 0)):
-            raise SettingsError(f"header 'temperature_levels' value '{levels_text}' is not evenly spaced temperatures",
-                                hint="expected '; temperature_levels = 205,210,215' in degC")
+    levels = _evenly_spaced(levels_text) if levels_text else None
+    if levels_text and levels is None:
+        raise SettingsError(f"header 'temperature_levels' value '{levels_text}' is not evenly spaced temperatures",
+                            hint="expected '; temperature_levels = 205,210,215' in degC")
     return make_palette(n_materials, colors, kind or "centers", levels)
+
+
+def _evenly_spaced(text: str) -> np.ndarray | None:
+    """The increasing, evenly spaced finite numbers of a comma-separated ``text``, or None."""
+    try:
+        values = np.array([float(v) for v in text.split(",")])
+    except ValueError:
+        return None
+    steps = np.diff(values)
+    if not np.isfinite(values).all() or (len(steps) and not (steps[0] > 0 and np.allclose(steps, steps[0]))):
+        return None
+    return values
 
 
 class StateField(BedField):
@@ -184,21 +188,19 @@ class StateField(BedField):
         super().__init__(design, placement)
         self.default = float(default)
 
-    def _temperature(self, x, y, z) -> np.ndarray:
-        t = self.attributes.values("temperature", x, y, z)
+    def _temperature(self, xy: np.ndarray, z: float) -> np.ndarray:
+        t = self.attribute("temperature", xy, z)
         return np.where(np.isfinite(t), t, self.default)
 
     def fractions(self, xy: np.ndarray, z: float) -> np.ndarray:
         """Fractions ``(N, k)`` and the temperature: ``(N, k + 1)``."""
-        x, y, zz = self._design_xyz(xy, z)
-        return np.column_stack([super().fractions(xy, z), self._temperature(x, y, zz)])
+        return np.column_stack([super().fractions(xy, z), self._temperature(xy, z)])
 
     def fractions_grid(self, xs: np.ndarray, ys: np.ndarray, z: float) -> np.ndarray:
         """:meth:`BedField.fractions_grid` and the temperature: ``(len(ys), len(xs), k + 1)``."""
-        f = super().fractions_grid(xs, ys, z)
-        x, y, zz = self.placement.to_design(np.asarray(xs, dtype=float)[None, :], np.asarray(ys, dtype=float)[:, None], float(z))
-        t = self._temperature(*np.broadcast_arrays(x, y, zz))
-        return np.concatenate([f, t.reshape(len(ys), len(xs), 1)], axis=-1)
+        gx, gy = np.meshgrid(np.asarray(xs, dtype=float), np.asarray(ys, dtype=float))
+        t = self._temperature(np.column_stack([gx.ravel(), gy.ravel()]), z).reshape(gx.shape)
+        return np.concatenate([super().fractions_grid(xs, ys, z), t[..., None]], axis=-1)
 
 
 def field_for(design, placement, palette, settings) -> BedField:
