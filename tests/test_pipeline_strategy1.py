@@ -209,3 +209,33 @@ def test_zipper_teeth_across_a_boundary_the_field_only_approaches_fit_the_tower(
     part = printing & (roles != "Skirt/Brim") & (roles != "Wipe tower")
     assert len(set(program.state[part].tolist())) == 2
     assert stats["purge_mm3"] > 0
+
+
+@pytest.mark.parametrize("resolution", [0.002, 0.05])
+def test_the_outline_is_simplified_to_gcode_resolution(tmp_path, resolution):
+    """Strategy 1 simplifies each layer's outline to ``gcode_resolution`` before its walls
+    and fills: the solid fill's line ends, which lie on the inner area's boundary (and are
+    not simplified again), stay within it of the inner circle, and a coarser resolution
+    leaves fewer wall vertices."""
+    program, roles, printing, _ = _slice_text(
+        tmp_path, 'function((-11, -11, 0), (11, 11, 1), "sqrt(x^2 + y^2) - 10", "blue");\n',
+        colors=1, walls=1, infill_density=100, top_layers=0, bottom_layers=0, skirt_loops=0,
+        gcode_resolution=resolution)
+    offset = np.array(read_header(tmp_path / "part.gcode").placement_offset)
+    fill = printing & (roles == "Solid infill")
+    ends = np.vstack([program.start[fill, :2], program.end[fill, :2]]) - offset[:2]
+    along_lines = np.isclose(program.start[fill, 0] - program.end[fill, 0],
+                             program.start[fill, 1] - program.end[fill, 1])  # the 45 degree lines, not links
+    radius = np.hypot(*ends[np.r_[along_lines, along_lines]].T)
+    settings = load_settings(None, {"walls": "1"})
+    s = settings.bead_width - settings.layer_height * (1 - np.pi / 4)
+    inner = 10 - settings.bead_width / 2 - s / 2
+    section_tolerance = 0.005
+    assert np.abs(radius - inner).max() <= resolution + section_tolerance + 1e-6
+    walls = printing & (roles == "External perimeter")
+    per_layer = walls.sum() / len(program.layer_z)
+    if resolution > 0.01:
+        assert np.abs(radius - inner).max() > 0.01  # the coarse outline is not the fine one
+        assert per_layer < 100
+    else:
+        assert per_layer > 150

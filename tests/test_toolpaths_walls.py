@@ -4,10 +4,15 @@ import numpy as np
 import pytest
 import shapely
 
+from fgslice.settings import Settings
 from fgslice.toolpaths.paths import Role
-from fgslice.toolpaths.walls import OUTLINE_TOLERANCE, bead_spacing, make_walls, offset, offset_polygons, simplify_outline
+from fgslice.toolpaths.walls import bead_spacing, make_walls, offset, offset_polygons, simplify_outline
 
 W, H = 0.4, 0.2
+RESOLUTION = Settings().gcode_resolution
+"""The tolerance strategy 1 simplifies its outlines to by default (mm)."""
+OFFSET_TOLERANCE = 0.005
+"""How far (mm) the walls' mitre offsets may lie from the reference offsets of a test."""
 
 
 def plate_with_hole():
@@ -43,14 +48,14 @@ def test_hole_gets_walls_and_paths_stay_inside():
     around_hole = [p for p in walls.paths if shapely.Polygon(p.points).contains(shapely.Point(15, 10)) and p.length < 40]
     assert len(around_hole) == 3
     for p in walls.paths:
-        # inside the outline by w/2, up to the outline's simplification
+        # inside the outline by w/2, up to the difference of mitre and round joins on the hole
         line = shapely.LinearRing(p.points)
-        assert outline.buffer(-W / 2 + OUTLINE_TOLERANCE + 1e-6).covers(line)
+        assert outline.buffer(-W / 2 + OFFSET_TOLERANCE + 1e-6).covers(line)
         assert not line.intersects(hole)
     # inner area is the strip edge of the last loop: w/2 + 2 s + s/2 inside
     s = bead_spacing(W, H)
     expected = outline.buffer(-(W / 2 + 2.5 * s), join_style="mitre")
-    assert walls.inner.symmetric_difference(expected).area < OUTLINE_TOLERANCE * expected.length
+    assert walls.inner.symmetric_difference(expected).area < OFFSET_TOLERANCE * expected.length
 
 
 def test_outer_first_order():
@@ -80,7 +85,7 @@ def test_no_walls_inner_is_half_bead_inside():
     walls = make_walls(outline, 0, W, H)
     assert walls.paths == []
     expected = outline.buffer(-W / 2, join_style="mitre")
-    assert walls.inner.symmetric_difference(expected).area < OUTLINE_TOLERANCE * expected.length
+    assert walls.inner.symmetric_difference(expected).area < OFFSET_TOLERANCE * expected.length
 
 
 def dumbbell():
@@ -97,8 +102,8 @@ def test_loops_are_the_opened_erosions(shape):
     # loop k is the boundary of the outline eroded by w/2 + k s and opened by s/2, whether
     # the opening is skipped (no event between levels) or computed (the neck); the
     # outline comes simplified (as strategy 1 slices it), within the tolerance of the shape
-    simple, count = simplify_outline(shape()), 6
-    assert shapely.hausdorff_distance(simple, shape()) <= OUTLINE_TOLERANCE
+    simple, count = simplify_outline(shape(), RESOLUTION), 6
+    assert shapely.hausdorff_distance(simple, shape()) <= RESOLUTION
     s = bead_spacing(W, H)
     walls = make_walls(simple, count, W, H, outer_first=True)
     dist = W / 2 + s * np.arange(count)
@@ -148,7 +153,7 @@ def test_convex_walls_are_geos_offsets_vertex_for_vertex(reverse):
     chamfered = shapely.Polygon([(0, 0), (20, 0), (20, 9.3), (19.3, 10), (0, 10)])  # 1 mm edge, gone at 1.2 mm
     s, count = bead_spacing(W, H), 6
     for shape in (oval, chamfered):
-        simple = simplify_outline(shape.reverse() if reverse else shape)
+        simple = simplify_outline(shape.reverse() if reverse else shape, RESOLUTION)
         walls = make_walls(simple, count, W, H, outer_first=True)
         want = offset(simple, -(W / 2 + s * np.arange(count)))
         assert len(walls.paths) == count

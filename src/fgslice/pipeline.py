@@ -171,7 +171,7 @@ def _section_task(job: SliceJob, indices: Sequence[int]) -> list[shapely.Geometr
     with _failures_of(job, indices):
         sections = job.design.sections([job.layers[i][1] - job.layers[i][2] / 2 - oz for i in indices])
         shifted = shapely.transform(np.array(sections, dtype=object), lambda c: c + np.array([ox, oy]))
-        return list(polygonal_each(simplify_outline(polygonal_each(shifted))))
+        return list(polygonal_each(simplify_outline(polygonal_each(shifted), job.settings.gcode_resolution)))
 
 
 def _layer_task(job: SliceJob, index: int) -> LayerResult:

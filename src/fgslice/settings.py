@@ -74,7 +74,7 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     zipper: Annotated[float, Meta(ge=0, le=100, description="zipper overlap band beta, percent of the gradient range")] = 0.0
     temperature_step: Annotated[float, Meta(ge=0.5, le=100, description="a temperature attribute is commanded in levels this far apart (multiples of it), C")] = 5.0
     attribute_tolerance: Annotated[float, Meta(gt=0, le=100, description="largest change of a fan, flow or speed attribute over one extrusion piece, points of percent")] = 2.0
-    gcode_resolution: Annotated[float, Meta(gt=0, le=1.0, description="path simplification tolerance, mm")] = 0.0125
+    gcode_resolution: Annotated[float, Meta(gt=0, le=1.0, description="how far simplification may move strategy 1's layer outlines (before walls, skins and infill) and its walls, mm")] = 0.0125
 
     # -- placement -------------------------------------------------------------------
     center: Annotated[bool, Meta(description="center the part on the bed")] = True

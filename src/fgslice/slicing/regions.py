@@ -1,8 +1,8 @@
 """One layer's outline and its per-color faces, in the bed frame (mm).
 
 The outline is the design's exact section at the layer's mid-plane, translated to the
-bed and simplified to :data:`SECTION_TOLERANCE` (as the walls' outline is: mesh
-sections carry many vertices a few microns apart, which make the clipping below slow).
+bed and simplified to :data:`SECTION_TOLERANCE` (mesh sections carry many vertices a
+few microns apart, which make the clipping below slow).
 Faces are computed without a polygon arrangement:
 
 1. the normalized fractions are sampled on a regular grid (``spacing`` mm, default one

@@ -25,7 +25,6 @@ import shapely
 from fgslice.toolpaths.paths import Path, Role
 from fgslice.toolpaths.simplify import simplify_polygons
 from fgslice.toolpaths.walls import (
-    OUTLINE_TOLERANCE,
     bead_spacing,
     offset,
     offset_polygons,
@@ -519,12 +518,9 @@ def uncovered_area(regions, width: float, eroded=None) -> float:
     That is each region minus its opening by ``w / 2`` (erode by half a bead, dilate
     back): what no bead of width ``w`` fits in. ``eroded``, when given, is ``regions``
     already eroded by ``w / 2`` (``regions`` may then be separate polygons: their
-    openings do not overlap); otherwise ``regions`` are first simplified to
-    :data:`~fgslice.toolpaths.walls.OUTLINE_TOLERANCE`, as walls are.
+    openings do not overlap); otherwise ``regions`` are opened as given.
     """
     regions = np.atleast_1d(np.asarray(regions, dtype=object))
-    if eroded is None:
-        regions = simplify_polygons(regions, OUTLINE_TOLERANCE)
     opened = opening(regions, width / 2) if eroded is None else offset(eroded, width / 2)
     # never below 0: an erosion dilated back with mitre joins can exceed the region
     # (overshoot at corners, or ~1e-12 mm^2 of rounding after an exact numpy erosion)

@@ -78,7 +78,7 @@ def layer_paths(
     walls = make_walls(regions.outline, settings.walls, w, h, outer_first=settings.wall_order == "outer_first")
     areas = split_inner(walls.inner, regions.outline, below, above, settings)
     sparse = density_regions(areas.sparse, field, regions.z_plane, settings.infill_density)
-    raw = simplify_paths(walls.paths + fill_inner(areas, regions.index, settings, sparse), settings.gcode_resolution)
+    raw = simplify_paths(walls.paths, settings.gcode_resolution) + fill_inner(areas, regions.index, settings, sparse)
     cut = cut_by_color(raw, field, palette, regions.z_plane, regions.index, settings)
     out = LayerPaths(regions.index, regions.z, regions.height)
     out.paths = cut.paths

@@ -29,11 +29,12 @@ import shapely
 
 from fgslice.settings import Settings
 from fgslice.slicing.layers import LayerRegions
+from fgslice.slicing.regions import SECTION_TOLERANCE
 from fgslice.toolpaths.infill import dense_levels, solid_fill, uncovered_area
 from fgslice.toolpaths.paths import LayerPaths, Role
 from fgslice.toolpaths.simplify import simplify_paths, simplify_polygons
 from fgslice.toolpaths.slivers import MIN_SLIVER_AREA, give_slivers
-from fgslice.toolpaths.walls import OUTLINE_TOLERANCE, bead_spacing, offset_polygons
+from fgslice.toolpaths.walls import bead_spacing, offset_polygons
 
 
 SURFACE_TOLERANCE = 0.05
@@ -83,15 +84,16 @@ def simplify_tolerance(settings: Settings) -> float:
 
 def _roles(loops, outline, width: float) -> np.ndarray:
     """Per loop: EXTERNAL_PERIMETER for outermost loops along the outline's boundary
-    (simplified like the walls' outline), PERIMETER for the other outermost loops,
-    SOLID_INFILL inside."""
+    (simplified like the layer's outline, to
+    :data:`~fgslice.slicing.regions.SECTION_TOLERANCE`), PERIMETER for the other
+    outermost loops, SOLID_INFILL inside."""
     roles = np.where(loops.level == 0, Role.PERIMETER, Role.SOLID_INFILL)
     first = np.flatnonzero(loops.level == 0)
     if len(first) == 0:
         return roles
     outer = (loops.level == 0)[loops.ring]
     rings = shapely.linestrings(loops.coords[outer], indices=np.searchsorted(first, loops.ring[outer]))
-    boundary = shapely.boundary(simplify_polygons(outline, OUTLINE_TOLERANCE))
+    boundary = shapely.boundary(simplify_polygons(outline, SECTION_TOLERANCE))
     shapely.prepare(boundary)
     surface = shapely.dwithin(boundary, rings, width / 2 + SURFACE_TOLERANCE)
     roles[first[surface]] = Role.EXTERNAL_PERIMETER

@@ -11,8 +11,8 @@ inside the outline; loop ``k`` sits ``w / 2 + k s`` inside.
 All geometry is shapely 2 in the bed frame, mm. Offsets use mitre joins with
 :data:`MITRE_LIMIT` and are vectorized over arrays of geometries and distances. Walls
 are offsets of the outline as given: strategy 1 simplifies each layer's outline once,
-when it is sliced, to :data:`OUTLINE_TOLERANCE` (:func:`simplify_outline`), and its
-walls and skins take it so.
+when it is sliced, to its ``gcode_resolution`` setting (:func:`simplify_outline`), and
+its walls and skins take it so.
 """
 
 from __future__ import annotations
@@ -28,16 +28,13 @@ from fgslice.toolpaths.simplify import simplify_polygons
 MITRE_LIMIT = 3.0
 """Mitre limit of every offset (ratio of the mitre length to the offset distance)."""
 
-OUTLINE_TOLERANCE = 0.005
-"""How far (mm) the outline's boundary may move when simplified before its walls are
-offset: mesh sections carry many vertices a few microns apart, which make mitre offsets
-slow (3DBenchy layers: 1150 vertices on average, 180 at this tolerance; walls 20x faster)."""
-
-
-def simplify_outline(outline):
-    """``outline`` (polygonal, mm) simplified to :data:`OUTLINE_TOLERANCE`, as walls and
-    skins take it."""
-    return simplify_polygons(outline, OUTLINE_TOLERANCE)
+def simplify_outline(outline, tolerance: float):
+    """``outline`` (polygonal, mm) simplified to ``tolerance`` (mm), as walls and skins take
+    it. Strategy 1 takes the ``gcode_resolution`` setting, as PrusaSlicer simplifies a
+    layer's slices before its perimeters: mesh sections carry many vertices a few
+    microns apart, which make mitre offsets slow (3DBenchy layers: 1150 vertices on
+    average, 127 at 0.0125 mm)."""
+    return simplify_polygons(outline, tolerance)
 
 
 def bead_spacing(width: float, height: float) -> float:
