@@ -8,6 +8,7 @@ import re
 
 import numpy as np
 import pytest
+import shapely
 from PIL import Image
 
 from fgslice.design import api
@@ -178,3 +179,32 @@ def test_thumbnails_of_meshes_drawn_from_the_slice_layers(tmp_path, strategy):
     # every body shows in its own color: the pixel's strongest channel is its material's
     strongest = np.argmax(drawn[a][:, :3], axis=1)
     assert all((strongest == channel).mean() > 0.2 for channel in range(3))
+
+
+def test_the_view_drawn_from_layers_matches_the_exact_render():
+    """Drawn from layer outlines (each pixel shows the highest layer holding its ray), a
+    graded ring with a post standing in its hole (an island drawn after the hole it sits
+    in) has the silhouette, shading and colors of the render from the exact signed
+    distance, the post included."""
+    from fgslice.preview.thumbnails import LayerOutlines, _Scene, render_image
+
+    ring = api.union(api.difference(api.cylinder(15, 10), api.cylinder(10, 10)), api.cylinder(4, 10))
+    design = api.design(api.fgrade(["x/30 + 0.5", "0.5 - x/30"], ["blue", "yellow"], ring))
+    (_, _, z0), (_, _, z1) = design.bounds()
+    mid = np.arange(z0 + 0.1, z1, 0.2)
+    layers = LayerOutlines(mid=mid + 5.0, height=np.full(len(mid), 0.2), outlines=[
+        shapely.affinity.translate(section, 100.0, 50.0) for section in design.sections(list(mid))],
+        offset=(100.0, 50.0, 5.0))
+    drawn = render_image(design, 220, 124, _Scene(design, layers))
+    exact = render_image(design, 220, 124)
+    a, b = drawn[..., 3] > 0.5, exact[..., 3] > 0.5
+    assert a.sum() > 5000
+    assert (a == b).mean() > 0.985
+    both = a & b
+    assert np.abs(drawn[both][:, :3] - exact[both][:, :3]).max(axis=1).mean() < 0.05
+    # the post shows where the ring alone lets the background through, as in the exact render
+    hollow = api.design(api.fgrade(["x/30 + 0.5", "0.5 - x/30"], ["blue", "yellow"],
+                                   api.difference(api.cylinder(15, 10), api.cylinder(10, 10))))
+    post = b & ~(render_image(hollow, 220, 124)[..., 3] > 0.5)
+    assert post.sum() > 100
+    assert a[post].mean() > 0.97

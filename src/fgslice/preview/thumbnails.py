@@ -6,17 +6,23 @@ material field at the visible surface (mixtures blended as in
 :mod:`fgslice.preview.colors`) and shaded by the surface's slope towards a light over the
 viewer's shoulder; the background is transparent.
 
-Rendering samples a signed distance once on a coarse grid over the design's bounds;
-every pixel's ray is marched through that grid's trilinear interpolation
-(:func:`_trilinear`) by sphere tracing, the first crossing is refined by bisection, and
-the design's fractions are evaluated once per hit pixel. The grid comes from the
-design's exact signed distance where that is cheap (about :data:`GRID_POINTS` points,
-hits refined on it); for designs holding meshes, from what the slice already has when
-it is given (:class:`LayerOutlines`: a strategy-1 slice's layer outlines, inside/outside
-per cell from the nearest layer: no 3-D mesh distance, no whole-mesh tables), else from
-the design's sections. Features
-thinner than the grid spacing (a few mm on a 150 mm part) may be missed; at thumbnail
-sizes they are below a pixel or two anyway.
+Given a slice's layer outlines (:class:`LayerOutlines`: what a strategy-1 slice has, and
+what strategy 2 sections for a design holding meshes), the view is drawn from them
+(:func:`_layer_image`): seen from above, the nearest surface along a pixel's ray is
+the one on the highest layer whose outline holds the ray's point at that layer's
+height, so every layer's outline, mapped to pixels at its height, is filled over the
+layers below it. The surface's normal comes from how that height varies across the
+image. No 3-D distance is built (3DBenchy's two thumbnails: 0.11 s, against 0.19 s
+for the sampled distance and ray marching below).
+
+Otherwise rendering samples a signed distance once on a coarse grid over the design's
+bounds; every pixel's ray is marched through that grid's trilinear interpolation
+(:func:`_trilinear`) by sphere tracing, the first crossing is refined by bisection.
+The grid comes from the design's exact signed distance where that is cheap (about
+:data:`GRID_POINTS` points, hits refined on it), else (designs holding meshes) from the
+design's sections. Features thinner than the grid spacing (a few mm on a 150 mm part)
+may be missed; at thumbnail sizes they are below a pixel or two anyway. Either way the
+design's fractions are evaluated once per hit pixel.
 
 Sizes come from ``settings.thumbnails`` (``"16x16,220x124"``): :func:`parse_sizes`.
 The PNGs are embedded by :mod:`fgslice.machine.thumbnails`.
@@ -46,6 +52,9 @@ MAX_STEPS = 96
 BISECTIONS = 4
 MAX_SIDE = 1024
 AMBIENT = 0.35
+SLOPE_RADIUS = (1, 1)
+"""Views drawn from layers: the shown height is averaged over ``2 r + 1`` pixels (rows,
+columns) before its slopes give the normals (layers quantize it)."""
 _SIZE = re.compile(r"^\s*(\d+)\s*[xX]\s*(\d+)\s*$")
 
 
@@ -100,18 +109,15 @@ class _Grid:
 
     :meth:`from_sdf` samples the design's signed distance; :meth:`from_sections`, for
     designs whose signed distance is slow (meshes), fills the grid from the design's
-    sections (inside/outside per cell), :meth:`from_layers` from a slice's layer outlines;
-    both convert that to a distance (:meth:`from_inside`).
+    sections (inside/outside per cell) and converts that to a distance
+    (:meth:`from_inside`).
     """
 
-    def __init__(self, lo: np.ndarray, step: np.ndarray, sdf: np.ndarray, planes: np.ndarray | None = None) -> None:
+    def __init__(self, lo: np.ndarray, step: np.ndarray, sdf: np.ndarray) -> None:
         self.lo = lo
         self.step = step
         self.sdf = sdf
         self.gradient = np.gradient(sdf, *step)
-        self.planes = planes
-        """From layers: the design-frame height (mm) of the layer each grid plane was drawn
-        from (grid planes outside the layers take the nearest drawn one's); else None."""
 
     @staticmethod
     def _axes(lo: np.ndarray, hi: np.ndarray, points: int) -> tuple[list[np.ndarray], np.ndarray]:
@@ -133,34 +139,6 @@ class _Grid:
         xx, yy = np.meshgrid(axes[0], axes[1], indexing="ij")
         inside = np.stack([shapely.contains_xy(section, xx, yy) for section in design.sections(axes[2])], axis=2)
         return cls.from_inside(lo, step, inside)
-
-    @classmethod
-    def from_layers(cls, layers: LayerOutlines, lo: np.ndarray, hi: np.ndarray, points: int) -> _Grid:
-        """Each grid plane takes the outline of the layer nearest to it (empty above the top
-        layer and below the bottom one); ``lo``, ``hi`` in the design frame."""
-        axes, step = cls._axes(lo, hi, points)
-        ox, oy, oz = layers.offset
-        xx, yy = np.meshgrid(axes[0] + ox, axes[1] + oy, indexing="ij")
-        mid, half = np.asarray(layers.mid, float), np.asarray(layers.height, float) / 2
-        z = axes[2] + oz
-        after = np.clip(np.searchsorted(mid, z), 1, len(mid) - 1) if len(mid) > 1 else np.zeros(len(z), int)
-        nearest = np.where(np.abs(z - mid[after - 1]) <= np.abs(z - mid[after]), after - 1, after)
-        within = np.abs(z - mid[nearest]) <= half[nearest]
-        inside = np.zeros(xx.shape + (len(z),), dtype=bool)
-        drawn = np.flatnonzero(within)
-        for k in drawn:
-            inside[:, :, k] = shapely.contains_xy(layers.outlines[nearest[k]], xx, yy)
-        grid = cls.from_inside(lo, step, inside)
-        if len(drawn):
-            closest = drawn[np.abs(np.arange(len(z))[:, None] - drawn[None, :]).argmin(axis=1)]
-            grid.planes = mid[nearest[closest]] - oz
-        return grid
-
-    def plane_heights(self, points: np.ndarray) -> np.ndarray:
-        """Each of ``(n, 3)`` points' height snapped to the layer its grid plane was drawn
-        from (needs :attr:`planes`)."""
-        k = np.clip(np.rint((points[:, 2] - self.lo[2]) / self.step[2]).astype(int), 0, len(self.planes) - 1)
-        return self.planes[k]
 
     @classmethod
     def from_inside(cls, lo: np.ndarray, step: np.ndarray, inside: np.ndarray) -> _Grid:
@@ -279,9 +257,10 @@ def _ray_box(origins: np.ndarray, view: np.ndarray, lo: np.ndarray, hi: np.ndarr
 
 
 class _Scene:
-    """What every view of one design shares: its padded bounds (mm), whether its exact
-    signed distance is used, and the sampled-distance :class:`_Grid` (from ``layers`` when
-    given); built once for all thumbnail sizes."""
+    """What every view of one design shares: its padded bounds (mm), the slice's
+    ``layers`` to draw it from (None: the design itself), whether its exact signed
+    distance is used, and the sampled-distance :class:`_Grid`; built once for all
+    thumbnail sizes."""
 
     def __init__(self, design: Design, layers: LayerOutlines | None = None) -> None:
         (x0, y0, z0), (x1, y1, z1) = design.bounds()
@@ -302,37 +281,64 @@ class _Scene:
 
     @property
     def grid(self) -> _Grid:
-        """The sampled distance: from the signed distance when exact, else from the layers
-        when given, else from the design's sections."""
+        """The sampled distance: from the signed distance when exact, else from the
+        design's sections."""
         if self._grid is None:
             if self.exact:
                 self._grid = _Grid.from_sdf(self.design, self.lo, self.hi, GRID_POINTS)
-            elif self.layers is not None:
-                self._grid = _Grid.from_layers(self.layers, self.lo, self.hi, SECTION_GRID_POINTS)
             else:
                 self._grid = _Grid.from_sections(self.design, self.lo, self.hi, SECTION_GRID_POINTS)
         return self._grid
 
 
+@dataclass(frozen=True)
+class _Pixels:
+    """The pixels' rays of one view: pixel ``(row, col)``'s ray starts at
+    ``origin + col * across + row * down`` (design frame, mm, outside the scene's
+    bounds) and runs along ``view``."""
+
+    width: int
+    height: int
+    origin: np.ndarray
+    across: np.ndarray
+    down: np.ndarray
+    view: np.ndarray
+    up: np.ndarray
+    right: np.ndarray
+
+    @classmethod
+    def framing(cls, scene: _Scene, width: int, height: int) -> _Pixels:
+        """The scene's bounds, centred, as large as ``width`` x ``height`` pixels hold."""
+        lo, hi = scene.lo, scene.hi
+        view, right, up = _view_basis()
+        corners = np.array(np.meshgrid(*zip(lo, hi), indexing="ij")).reshape(3, -1).T
+        u, v = corners @ right, corners @ up
+        pixel = max((u.max() - u.min()) / width, (v.max() - v.min()) / height)
+        uc, vc = (u.max() + u.min()) / 2, (v.max() + v.min()) / 2
+        center = (lo + hi) / 2
+        reach = float(np.linalg.norm(hi - lo))
+        u0, v0 = uc - (width - 1) / 2 * pixel, vc + (height - 1) / 2 * pixel
+        origin = center + (u0 - center @ right) * right + (v0 - center @ up) * up - reach * view
+        return cls(width, height, origin, pixel * right, -pixel * up, view, up, right)
+
+    def origins(self) -> np.ndarray:
+        """``(height * width, 3)`` ray origins, row by row."""
+        rows, cols = np.divmod(np.arange(self.height * self.width), self.width)
+        return self.origin + cols[:, None] * self.across + rows[:, None] * self.down
+
+
 def render_image(design: Design, width: int, height: int, scene: _Scene | None = None) -> np.ndarray:
     """``(height, width, 4)`` RGBA floats (0-1) of the design's view (row 0 at the top).
 
-    ``scene`` shares the sampled grid between several sizes of the same design.
+    ``scene`` shares the sampled grid between several sizes of the same design; a scene
+    with layers draws the view from them (:func:`_layer_image`).
     """
     scene = scene or _Scene(design)
-    lo, hi = scene.lo, scene.hi
-    view, right, up = _view_basis()
-    corners = np.array(np.meshgrid(*zip(lo, hi), indexing="ij")).reshape(3, -1).T
-    u, v = corners @ right, corners @ up
-    pixel = max((u.max() - u.min()) / width, (v.max() - v.min()) / height)
-    uc, vc = (u.max() + u.min()) / 2, (v.max() + v.min()) / 2
-    us = uc + (np.arange(width) - (width - 1) / 2) * pixel
-    vs = vc - (np.arange(height) - (height - 1) / 2) * pixel
-    uu, vv = np.meshgrid(us, vs)
-    center = (lo + hi) / 2
-    reach = float(np.linalg.norm(hi - lo))
-    origins = (center + (uu.ravel() - center @ right)[:, None] * right + (vv.ravel() - center @ up)[:, None] * up
-               - reach * view)
+    pixels = _Pixels.framing(scene, width, height)
+    if scene.layers is not None:
+        return _layer_image(design, scene.layers, pixels)
+    lo, hi, view = scene.lo, scene.hi, pixels.view
+    origins = pixels.origins()
     t_in, t_out = _ray_box(origins, view, lo, hi)
     image = np.zeros((height * width, 4))
     rays = np.flatnonzero(t_in < t_out)
@@ -366,14 +372,115 @@ def render_image(design: Design, width: int, height: int, scene: _Scene | None =
         b = np.where(inside, mid, b)
         a = np.where(inside, a, mid)
     p = o + b[:, None] * view
-    fractions = _fractions(design, p, grid.plane_heights(p) if grid.planes is not None else None)
-    color = mix_rgba(fractions, materials_rgba(design.materials))
-    light = -view + 0.6 * up + 0.3 * right
-    light /= np.linalg.norm(light)
-    shade = AMBIENT + (1 - AMBIENT) * np.clip(grid.normal(p) @ light, 0.0, 1.0)
-    color[:, :3] *= shade[:, None]
-    image[rays[found]] = color
+    image[rays[found]] = _shaded(design, p, grid.normal(p), pixels, None)
     return image.reshape(height, width, 4)
+
+
+def _shaded(design: Design, points: np.ndarray, normals: np.ndarray, pixels: _Pixels,
+            planes: np.ndarray | None) -> np.ndarray:
+    """RGBA ``(n, 4)`` of surface ``points`` ``(n, 3)`` with unit outward ``normals``: the
+    design's mixture there (:func:`_fractions`, with ``planes``), lit by a light over the
+    viewer's shoulder."""
+    color = mix_rgba(_fractions(design, points, planes), materials_rgba(design.materials))
+    light = -pixels.view + 0.6 * pixels.up + 0.3 * pixels.right
+    light /= np.linalg.norm(light)
+    shade = AMBIENT + (1 - AMBIENT) * np.clip(normals @ light, 0.0, 1.0)
+    color[:, :3] *= shade[:, None]
+    return color
+
+
+def _layer_image(design: Design, layers: LayerOutlines, pixels: _Pixels) -> np.ndarray:
+    """``(height, width, 4)`` RGBA of the view drawn from a slice's layer outlines.
+
+    Along a pixel's ray the height falls as the depth grows (the view looks down), so the
+    surface a pixel shows lies on the highest layer whose outline holds the ray's point
+    at that layer's mid-height. The ray's point at height ``z`` is an affine function of
+    the pixel and ``z``: each layer's outline, mapped to pixels at its height, is filled
+    (Pillow's polygon fill, holes cleared, larger parts first so that an island inside
+    a hole is drawn after it) and marks its pixels with the layer, bottom to top. The
+    normal at a pixel comes from the derivatives of the shown height across the image
+    (smoothed over :data:`SLOPE_RADIUS`, one-sided at the silhouette); the fractions are the
+    design's on the layer's plane.
+    """
+    from PIL import Image, ImageDraw
+
+    w, h, view = pixels.width, pixels.height, pixels.view
+    ox, oy, oz = layers.offset
+    drift = view[:2] / view[2]  # how the ray's xy moves per mm of height
+    start = pixels.origin[:2] - pixels.origin[2] * drift
+    to_xy = np.column_stack([pixels.across[:2] - pixels.across[2] * drift, pixels.down[:2] - pixels.down[2] * drift])
+    to_pixel = np.linalg.inv(to_xy)
+    heights = np.asarray(layers.mid, dtype=float) - oz
+    parts, layer = shapely.get_parts(np.asarray(layers.outlines, dtype=object), return_index=True)
+    order = np.lexsort((-shapely.area(parts), layer))
+    parts, layer = parts[order], layer[order]
+    rings, part = shapely.get_rings(parts, return_index=True)
+    coords, ring = shapely.get_coordinates(rings, return_index=True)
+    image = np.zeros((h, w, 4))
+    if len(rings) == 0:
+        return image
+    at = (coords - start - (ox, oy) - heights[layer[part[ring]], None] * drift) @ to_pixel.T
+    shown = np.full((h, w), -1, dtype=np.int64)
+    ring_at = np.searchsorted(ring, np.arange(len(rings) + 1))
+    layer_at = np.searchsorted(layer[part], np.arange(len(heights) + 1))
+    hole = np.r_[False, part[1:] == part[:-1]].tolist()
+    drawn = np.unique(layer[part])  # the layers with rings
+    starts = ring_at[layer_at[drawn]]  # each one's first vertex
+    low = np.maximum(np.floor(np.minimum.reduceat(at, starts)).astype(int), 0)
+    high = np.minimum(np.ceil(np.maximum.reduceat(at, starts)).astype(int) + 1, (w, h))
+    ring_at, layer_at = ring_at.tolist(), layer_at.tolist()
+    for k, (x0, y0), (x1, y1) in zip(drawn.tolist(), low.tolist(), high.tolist()):
+        if x0 >= x1 or y0 >= y1:
+            continue
+        mask = Image.new("L", (x1 - x0, y1 - y0))
+        draw = ImageDraw.Draw(mask)
+        for r in range(layer_at[k], layer_at[k + 1]):
+            draw.polygon((at[ring_at[r] : ring_at[r + 1]] - (x0, y0)).ravel().tolist(), fill=0 if hole[r] else 255)
+        shown[y0:y1, x0:x1][np.asarray(mask) > 0] = k
+    hit = shown >= 0
+    if not hit.any():
+        return image
+    z = np.where(hit, heights[np.maximum(shown, 0)], 0.0)
+    rows, cols = np.nonzero(hit)
+    origins = pixels.origin + cols[:, None] * pixels.across + rows[:, None] * pixels.down
+    points = origins + ((z[hit] - origins[:, 2]) / view[2])[:, None] * view
+    dz_across, dz_down = _height_slopes(z, hit)
+    along = [step[None, :] + ((slope[hit] - step[2]) / view[2])[:, None] * view
+             for step, slope in ((pixels.across, dz_across), (pixels.down, dz_down))]
+    normals = np.cross(along[0], along[1])
+    normals *= np.where(normals @ view > 0, -1.0, 1.0)[:, None]
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+    image[hit] = _shaded(design, points, normals, pixels, z[hit])
+    return image
+
+
+def _box_sum(values: np.ndarray, radius: tuple[int, int]) -> np.ndarray:
+    """Sum of ``values`` (2-D) over the ``2 radius + 1`` cells (rows, columns) around each
+    cell (cells beyond the edge count as 0), by cumulative sums."""
+    (r, c), (n, m) = radius, values.shape
+    total = np.pad(values, ((r + 1, r), (c + 1, c))).cumsum(axis=0).cumsum(axis=1)
+    a, b = 2 * r + 1, 2 * c + 1
+    return total[a:a + n, b:b + m] - total[:n, b:b + m] - total[a:a + n, :m] + total[:n, :m]
+
+
+def _height_slopes(z: np.ndarray, hit: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per pixel, how the shown height ``z`` (mm, valid where ``hit``) changes per pixel
+    across (columns) and down (rows): central differences of ``z`` averaged over the hit
+    pixels around each (:data:`SLOPE_RADIUS`), one-sided where a neighbour is not hit, 0
+    where neither."""
+    weight = hit.astype(float)
+    smooth = np.where(hit, _box_sum(z * weight, SLOPE_RADIUS) / np.maximum(_box_sum(weight, SLOPE_RADIUS), 1.0), 0.0)
+    slopes = []
+    for axis in (1, 0):
+        padded, valid = np.pad(smooth, 1), np.pad(hit, 1)
+        ahead = tuple(slice(2, None) if a == axis else slice(1, -1) for a in range(2))
+        behind = tuple(slice(None, -2) if a == axis else slice(1, -1) for a in range(2))
+        up_ok, down_ok = valid[ahead], valid[behind]
+        span = up_ok.astype(float) + down_ok
+        forward = np.where(up_ok, padded[ahead], smooth)
+        backward = np.where(down_ok, padded[behind], smooth)
+        slopes.append(np.where(span > 0, (forward - backward) / np.maximum(span, 1.0), 0.0))
+    return slopes[0], slopes[1]
 
 
 def _fractions(design: Design, points: np.ndarray, planes: np.ndarray | None) -> np.ndarray:
