@@ -117,3 +117,26 @@ def test_rectilinear_many_equals_separate_fills():
     assert [p.role for p in many] == [p.role for p in alone]
     assert all(np.allclose(a.points, b.points, atol=1e-9) for a, b in zip(many, alone))
     assert volume([p for p in many if p.role is Role.SOLID_INFILL]) == pytest.approx(box.area * H, rel=0.05)
+
+
+@pytest.mark.parametrize("angle", [0, 30, 90])
+def test_lines_between_two_slanted_edges_make_one_serpentine(angle):
+    """Every link of a fill between two long straight edges runs along one of them (both
+    of its ends lie on that edge): all are taken, and the fill is one serpentine."""
+    band = shapely.affinity.rotate(shapely.Polygon([(0, 0), (30, 0), (42, 40), (12, 40)]), angle, origin=(0, 0))
+    points, chain, _ = line_fill([band], 0.5, angle, W)
+    assert len(np.unique(chain)) == 1
+    assert len(points) > 150
+    grown = band.buffer(1e-6)
+    assert grown.covers(shapely.LineString(points))
+
+
+def test_a_link_across_a_notch_is_refused():
+    """Line ends on two different edges with the boundary between them bulging inward
+    (a notch) are not linked across it."""
+    notched = shapely.box(0, 0, 20, 10).difference(shapely.Polygon([(20, 4.6), (17, 5.1), (20, 5.6)]))
+    points, chain, _ = line_fill([notched], 0.4, 0, W)
+    notch = shapely.Polygon([(20, 4.6), (17, 5.1), (20, 5.6)]).buffer(-1e-6)
+    paths = [shapely.LineString(points[chain == c]) for c in np.unique(chain) if (chain == c).sum() > 1]
+    assert not any(path.intersects(notch) for path in paths)
+    assert len(paths) == 2  # the lines above the notch and those below it

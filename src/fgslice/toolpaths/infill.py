@@ -78,9 +78,10 @@ def _scan_segments(coords: np.ndarray, ring: np.ndarray, spacing, min_length: fl
     per ring; ``group``, when given (one value per ring), clips each group of rings on
     its own (groups may overlap, e.g. one region at several spacings).
 
-    Returns ``(line, x0, x1, y, src)`` arrays sorted by group, line then x, one row per
-    segment at least ``min_length`` long; ``src`` is the ring whose edge the segment
-    starts on (a segment lies in the region that ring bounds).
+    Returns ``(line, x0, x1, y, src, ends)`` arrays sorted by group, line then x, one row
+    per segment at least ``min_length`` long; ``src`` is the ring whose edge the segment
+    starts on (a segment lies in the region that ring bounds); ``ends`` ``(n, 2)`` the
+    edges (index of their first vertex) its two ends lie on.
     """
     first = ring_starts(ring)
     nxt = np.arange(1, len(coords) + 1)
@@ -101,17 +102,24 @@ def _scan_segments(coords: np.ndarray, ring: np.ndarray, spacing, min_length: fl
     line, x, y, edge = line[order], x[order], y[order], edge[order]
     line, x0, x1, y, src = line[0::2], x[0::2], x[1::2], y[0::2], ring[edge[0::2]]
     keep = x1 - x0 >= min_length
-    return line[keep], x0[keep], x1[keep], y[keep], src[keep]
+    return line[keep], x0[keep], x1[keep], y[keep], src[keep], edge.reshape(-1, 2)[keep]
 
 
-def _links(containers, owner, line, x0, x1, y, spacing, angle_deg: float) -> tuple[np.ndarray, np.ndarray]:
+def _links(containers, owner, line, x0, x1, y, ends, spacing, angle_deg: float) -> tuple[np.ndarray, np.ndarray]:
     """Accepted links ``(a, b)``: segment ``a`` on line ``i`` to segment ``b`` on ``i + 1``.
 
     The link joins the right ends when ``i`` is even, the left ends when odd; both
     segments must belong to the same region (``owner``), the link must be at most
     :data:`MAX_LINK_SPACINGS` times the region's ``spacing`` (one value, or one per
-    region) long and lie in the region's entry of ``containers`` (prepared, bed frame).
-    Each end is used once (shortest candidate wins).
+    region) long and lie in the region's entry of ``containers`` (bed frame). Each end
+    is used once (shortest candidate wins).
+
+    A link whose two ends lie on one boundary edge (``ends``, from
+    :func:`_scan_segments`) runs along that edge, :data:`INSIDE_TOLERANCE` inside it:
+    it is taken without a test, like a link along an edge that ``covers`` accepts
+    thanks to that slack (on 3DBenchy's fills, 70 % of the candidates; of their 62,000,
+    one passes within 1e-4 mm of the tip of a hole touching the edge, which ``covers``
+    refuses). The others are tested with ``covers``.
     """
     n = len(line)
     if n < 2:
@@ -133,10 +141,15 @@ def _links(containers, owner, line, x0, x1, y, spacing, angle_deg: float) -> tup
     length = np.hypot(xb - xa, y[b] - y[a])
     ok = length <= MAX_LINK_SPACINGS * (np.asarray(spacing)[owner[a]] if np.ndim(spacing) else spacing)
     a, b, xa, xb, length, right = a[ok], b[ok], xa[ok], xb[ok], length[ok], right[ok]
-    inward = np.where(right, -INSIDE_TOLERANCE, INSIDE_TOLERANCE)
-    ends = _rotate(np.column_stack([xa + inward, y[a], xb + inward, y[b]]).reshape(-1, 2), angle_deg)
-    links = shapely.linestrings(ends.reshape(-1, 2, 2))
-    inside = shapely.covers(containers[owner[a]], links)
+    side = right.astype(np.int64)
+    inside = ends[a, side] == ends[b, side]
+    test = np.flatnonzero(~inside)
+    if len(test):
+        inward = np.where(right[test], -INSIDE_TOLERANCE, INSIDE_TOLERANCE)
+        xy = np.column_stack([xa[test] + inward, y[a[test]], xb[test] + inward, y[b[test]]])
+        links = shapely.linestrings(_rotate(xy.reshape(-1, 2), angle_deg).reshape(-1, 2, 2))
+        shapely.prepare(containers)
+        inside[test] = shapely.covers(containers[owner[a[test]]], links)
     a, b, length = a[inside], b[inside], length[inside]
     order = np.argsort(length, kind="stable")
     a, b = a[order], b[order]
@@ -202,13 +215,12 @@ def line_fill(regions, spacing, angle_deg: float, width: float, *, link: bool = 
         step, group = np.asarray(spacing, dtype=float)[ring_owner], ring_owner
     else:
         step, group = spacing, None
-    line, x0, x1, y, src = _scan_segments(_rotate(coords, -angle_deg), ring, step, width, group)
+    line, x0, x1, y, src, ends = _scan_segments(_rotate(coords, -angle_deg), ring, step, width, group)
     if len(line) == 0:
         return empty
     owner = ring_owner[src]
     if np.any(link):
-        shapely.prepare(regions)
-        a, b = _links(regions, owner, line, x0, x1, y, spacing, angle_deg)
+        a, b = _links(regions, owner, line, x0, x1, y, ends, spacing, angle_deg)
         if np.ndim(link):
             linked = np.asarray(link, dtype=bool)[owner[a]]
             a, b = a[linked], b[linked]
