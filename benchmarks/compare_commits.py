@@ -9,8 +9,8 @@ version and the ratio current / base (below 1 is faster).
 
 Run: ``.venv/bin/python benchmarks/compare_commits.py BASE [--rows vase,palette_s1_c16] [--repeat 3] [--jobs 2]``
 (rows as in ``run_all.py --list``, plus ``single_benchy``: the single-material Benchy of
-the ``compare`` row, and the ``implicit`` rows by name: ``function_vase``, ``gyroid``,
-``three_meshes``).
+the ``compare`` row, ``single_benchy_thumbnails``: the same with the default thumbnails,
+and the ``implicit`` rows by name: ``function_vase``, ``gyroid``, ``three_meshes``).
 """
 
 from __future__ import annotations
@@ -36,6 +36,7 @@ def rows_by_name(workdir: Path) -> dict[str, tuple[Path, tuple[str, ...]]]:
     design = workdir / "benchy_single.vcad"
     design.write_text(f"mesh({json.dumps(str(run_all.BENCHY_STL))});\n")
     rows["single_benchy"] = (design, run_all.SINGLE_BENCHY_ARGS)
+    rows["single_benchy_thumbnails"] = (design, run_all.SINGLE_BENCHY_ARGS + run_all.WITH_THUMBNAILS)
     return rows
 
 

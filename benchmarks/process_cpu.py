@@ -1,6 +1,8 @@
 """Where a slice's CPU goes, process by process: ``--jobs 1`` against ``--jobs N``.
 
-Each run slices one row of ``run_all.py`` (default: the vase) in a fresh process that
+Each run slices one row (default: the vase; the names ``compare_commits.py`` knows: the
+rows of ``run_all.py``, the implicit parts, ``single_benchy`` and
+``single_benchy_thumbnails``) in a fresh process that
 times the pipeline's stages (:data:`STAGES`) wherever they run: in the command's own
 process (``parent``), in the pool's workers (``worker``), in the process that verifies
 the file while it is written (``verifier``) and in the one that renders thumbnails
@@ -32,6 +34,7 @@ import time
 from collections import defaultdict
 from pathlib import Path
 
+import compare_commits
 import run_all
 
 STAGES = (
@@ -125,12 +128,13 @@ def child(record_path: str, argv: list[str]) -> None:
     os._exit(code)
 
 
-def run_once(row: run_all.Row, jobs: int, workdir: Path) -> list[dict]:
-    """One timed slice of ``row``: the records of its processes."""
+def run_once(name: str, design: Path, args: tuple[str, ...], jobs: int, workdir: Path) -> list[dict]:
+    """One timed slice of row ``name`` (``design`` sliced with ``args``): the records of
+    its processes."""
     records = workdir / f"records-{jobs}.jsonl"
     records.unlink(missing_ok=True)
-    out = workdir / f"{row.name}-{jobs}.gcode"
-    argv = run_all.fgslice_cmd(row.design, row.args, out, jobs)[3:]  # run_all.py's, after "python -m fgslice.cli"
+    out = workdir / f"{name}-{jobs}.gcode"
+    argv = run_all.fgslice_cmd(design, args, out, jobs)[3:]  # run_all.py's, after "python -m fgslice.cli"
     done = subprocess.run([sys.executable, __file__, "--child", str(records), "--", *argv],
                           cwd=run_all.ROOT, capture_output=True, text=True)
     if done.returncode != 0:
@@ -189,21 +193,22 @@ def main() -> None:
     if len(sys.argv) > 2 and sys.argv[1] == "--child":
         child(sys.argv[2], sys.argv[4:])
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--row", default="vase", help="a row of run_all.py (see run_all.py --list)")
+    parser.add_argument("--row", default="vase", help="a row of run_all.py (see run_all.py --list), an implicit "
+                        "part, single_benchy or single_benchy_thumbnails")
     parser.add_argument("--jobs", type=int, default=2, help="workers to compare with one process")
     parser.add_argument("--repeat", type=int, default=5, help="runs of each setting, taken in turns")
     args = parser.parse_args()
-    rows = {row.name: row for row in run_all.ROWS}
-    if args.row not in rows:
-        parser.error(f"unknown row {args.row}; choose from {', '.join(rows)}")
     if args.jobs < 2 or args.repeat < 1:
         parser.error("--jobs must be at least 2 and --repeat at least 1")
-    run_all.byte_compile()
     runs: dict[int, list] = {1: [], args.jobs: []}
     with tempfile.TemporaryDirectory() as tmp:
+        rows = compare_commits.rows_by_name(Path(tmp))
+        if args.row not in rows:
+            parser.error(f"unknown row {args.row}; choose from {', '.join(rows)}")
+        run_all.byte_compile()
         for _ in range(args.repeat):
             for jobs in runs:
-                runs[jobs].append(run_once(rows[args.row], jobs, Path(tmp)))
+                runs[jobs].append(run_once(args.row, *rows[args.row], jobs, Path(tmp)))
     one, many = summarize(runs[1]), summarize(runs[args.jobs])
     print(f"{args.row}, median of {args.repeat} runs each, taken in turns")
     print_summary(1, one)
