@@ -23,7 +23,6 @@ import numpy as np
 import shapely
 
 from fgslice.toolpaths.paths import Path, Role
-from fgslice.toolpaths.simplify import simplify_polygons
 from fgslice.toolpaths.walls import (
     bead_spacing,
     offset,

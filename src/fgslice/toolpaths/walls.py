@@ -28,6 +28,7 @@ from fgslice.toolpaths.simplify import simplify_polygons
 MITRE_LIMIT = 3.0
 """Mitre limit of every offset (ratio of the mitre length to the offset distance)."""
 
+
 def simplify_outline(outline, tolerance: float):
     """``outline`` (polygonal, mm) simplified to ``tolerance`` (mm), as walls and skins take
     it. Strategy 1 takes the ``gcode_resolution`` setting, as PrusaSlicer simplifies a
