@@ -208,3 +208,18 @@ def test_the_view_drawn_from_layers_matches_the_exact_render():
     post = b & ~(render_image(hollow, 220, 124)[..., 3] > 0.5)
     assert post.sum() > 100
     assert a[post].mean() > 0.97
+
+
+def test_layers_without_outlines_draw_a_transparent_view():
+    """Layers whose outlines are all empty (or the empty parts of some) leave the
+    background transparent, with no error; a layer with an outline still shows."""
+    from fgslice.preview.thumbnails import LayerOutlines, _Scene, render_image
+
+    def layers(outlines):
+        return LayerOutlines(mid=0.1 + 0.2 * np.arange(len(outlines)), height=np.full(len(outlines), 0.2),
+                             outlines=outlines, offset=(0.0, 0.0, 0.0))
+
+    empty = [shapely.Polygon(), shapely.MultiPolygon(), shapely.Polygon()]
+    assert not render_image(GRADIENT, 40, 30, _Scene(GRADIENT, layers(empty)))[..., 3].any()
+    one = [shapely.box(-20, -10, 20, 10), shapely.Polygon(), shapely.MultiPolygon()]
+    assert render_image(GRADIENT, 40, 30, _Scene(GRADIENT, layers(one)))[..., 3].sum() > 100
