@@ -441,8 +441,7 @@ def _layer_image(design: Design, layers: LayerOutlines, pixels: _Pixels) -> np.n
     if not hit.any():
         return image
     z = np.where(hit, heights[np.maximum(shown, 0)], 0.0)
-    rows, cols = np.nonzero(hit)
-    origins = pixels.origin + cols[:, None] * pixels.across + rows[:, None] * pixels.down
+    origins = pixels.origins()[hit.ravel()]
     points = origins + ((z[hit] - origins[:, 2]) / view[2])[:, None] * view
     dz_across, dz_down = _height_slopes(z, hit)
     along = [step[None, :] + ((slope[hit] - step[2]) / view[2])[:, None] * view
