@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
@@ -257,6 +258,44 @@ def test_program_exit_status_of_errors_and_of_click_usage(design, tmp_path):
     usage = _program("slice")
     assert usage.returncode == 2 and "Missing argument" in usage.stderr
     assert _program("--version").returncode == 0
+
+
+_THREADS_AFTER_NUMPY = """
+import os, sys
+from fgslice import cli
+
+class Probe:
+    commands = cli.main.commands
+
+    def __call__(self):
+        import numpy  # noqa: F401
+        print(os.environ.get("OPENBLAS_NUM_THREADS", "unset"), len(os.listdir("/proc/self/task")))
+        sys.exit(0)
+
+cli.main = Probe()
+sys.argv = ["fgslice", "slice"]
+cli.run()
+"""
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="threads are counted in /proc")
+def test_program_runs_numpy_single_threaded_unless_told_otherwise():
+    """numpy's BLAS would start a thread pool competing with the worker processes; the
+    program limits it to one thread, and an explicit OPENBLAS_NUM_THREADS wins."""
+    import os
+    import subprocess
+    import sys
+
+    def threads(env):
+        done = subprocess.run([sys.executable, "-c", _THREADS_AFTER_NUMPY], capture_output=True, text=True,
+                              timeout=60, env=env)
+        assert done.returncode == 0, done.stderr
+        return done.stdout.split()
+
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")}
+    assert threads(env) == ["1", "1"]
+    if (os.cpu_count() or 1) >= 2:
+        assert threads({**env, "OPENBLAS_NUM_THREADS": "2"}) == ["2", "2"]
 
 
 def test_program_under_a_profiler_exits_normally_so_it_saves_its_data(design, tmp_path):

@@ -431,8 +431,15 @@ def run() -> None:
     which is never unmapped: slicing the vase, the palette or the Benchy makes 12-15
     munmaps in all. (Newer CPython releases keep a spare chunk instead,
     python/cpython#142183.)
+
+    Before that import, numpy's OpenBLAS is limited to one thread
+    (``OPENBLAS_NUM_THREADS=1`` unless the environment sets it): fgslice runs its layers
+    in worker processes and calls BLAS only on tiny matrices, and OpenBLAS's thread
+    pool, started at import, costs every command about 60 ms of its serial start-up and
+    130 ms of CPU on the other core (2-core machine).
     """
     retain_freed_memory()
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     if any(arg in main.commands for arg in sys.argv[1:]):
         import numpy  # noqa: F401 - imported here for where it happens (see above)
     if sys.getprofile() is not None or sys.gettrace() is not None:
