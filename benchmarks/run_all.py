@@ -6,7 +6,8 @@ covers one whole command (start-up, import, slicing, writing, verification):
 * wall: elapsed seconds of the command;
 * cpu: user + system seconds of the command and its worker processes (on a shared,
   loaded machine this is the steadier figure);
-* peak: largest resident set of the command or any of its workers, MB (``wait4``);
+* peak: largest resident set of the command or any of its workers, MB (``wait4``, from a
+  small launcher process so that this script's own size does not count);
 * ratios: our wall time over the paper's (1271 s vase ... 424 s palette) and over our
   target (vase 8 s, Benchy 5 s, palette rows 1.5 s), and our CPU time over the target
   (what the wall time would be on an idle machine with one core); below 1 is better.
@@ -137,19 +138,48 @@ class Run:
     stderr: str
 
 
+LAUNCHER = """\
+import os, sys, time
+report = int(sys.argv[1])
+start = time.perf_counter()
+pid = os.fork()
+if pid == 0:
+    os.close(report)
+    try:
+        os.execvp(sys.argv[2], sys.argv[2:])
+    except OSError as error:
+        print(f"cannot run {sys.argv[2]}: {error}", file=sys.stderr)
+        os._exit(127)
+_, status, usage = os.wait4(pid, 0)
+wall = time.perf_counter() - start
+os.write(report, f"{wall} {usage.ru_utime + usage.ru_stime} {usage.ru_maxrss} {status}".encode())
+"""
+"""Runs a measured command from a small process of its own (``python -S``, about 8 MB):
+Linux counts in a child's ``ru_maxrss`` the resident set it had before ``exec``, a copy of
+its parent's, so a command started straight from this script (which imports trimesh for
+the implicit rows, about 110 MB) would report this script's size as its peak whenever
+its own is smaller. The launcher forks, execs the command, waits for it and writes its
+wall time, CPU time, peak RSS (kB) and wait status to the file descriptor it is given."""
+
+
 def measure(cmd: list[str], cwd: Path, env: dict[str, str] | None = None) -> Run:
     """Run ``cmd`` (in environment ``env``, default this one) and return its wall time,
-    CPU time and peak RSS (its own or any waited-for descendant's, as ``wait4`` reports
-    them on Linux: ru_maxrss in kB)."""
-    start = time.perf_counter()
+    CPU time and peak RSS: its own or any waited-for descendant's, as ``wait4`` reports
+    them on Linux (ru_maxrss, kB), through :data:`LAUNCHER` so that this script's own size
+    does not count (a peak below the launcher's, about 8 MB, reads as the launcher's)."""
+    read, write = os.pipe()
     with tempfile.TemporaryFile(mode="w+") as err:
-        proc = subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.DEVNULL, stderr=err, env=env)
-        _, status, usage = os.wait4(proc.pid, 0)
-        wall = time.perf_counter() - start
-        proc.returncode = os.waitstatus_to_exitcode(status)
+        try:
+            subprocess.run([sys.executable, "-S", "-c", LAUNCHER, str(write), *cmd], cwd=cwd, env=env,
+                           stdout=subprocess.DEVNULL, stderr=err, pass_fds=(write,), check=True)
+        finally:
+            os.close(write)
+            with os.fdopen(read, "rb") as figures:
+                reported = figures.read().decode()
+        wall, cpu, peak_kb, status = reported.split()
         err.seek(0)
         stderr = err.read()
-    return Run(wall, usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024, proc.returncode, stderr)
+    return Run(float(wall), float(cpu), int(peak_kb) / 1024, os.waitstatus_to_exitcode(int(status)), stderr)
 
 
 def fgslice_cmd(design: Path, args: tuple[str, ...], out: Path, jobs: int) -> list[str]:
