@@ -283,3 +283,31 @@ def test_benchy_batches_section_like_the_whole_mesh(benchy_path):
     whole = load_mesh(benchy_path)
     whole.prepare_sections()
     assert [s.wkb for s in by_batch] == [s.wkb for s in whole.sections(zs)]
+
+
+def test_stable_order_is_numpys_stable_argsort_with_ties_and_overflow():
+    """The quicksort of ``key * n + index`` orders like numpy's stable sort, ties in input
+    order; keys too large for that product, or negative, take the stable sort itself."""
+    from fgslice.design.mesh import _stable_order
+
+    rng = np.random.default_rng(3)
+    for keys in (rng.integers(0, 50, 10_000), rng.integers(0, 2**40, 5_000), np.array([2**62, 1, 2**62, 0]),
+                 np.array([-3, 5, -3, 0]), np.zeros(7, dtype=np.int64), np.array([], dtype=np.int64)):
+        assert np.array_equal(_stable_order(keys), np.argsort(keys, kind="stable"))
+
+
+def test_merged_vertices_keep_each_groups_first_vertex_in_input_order():
+    """Vertices equal after rounding merge into the first of them in input order (its
+    coordinates exactly), whatever order the unstable sort leaves within the group."""
+    from fgslice.design.mesh import _merge_vertices
+
+    rng = np.random.default_rng(5)
+    base = np.rint(rng.random((300, 3)) * 50e8) / 1e8  # on the rounding grid
+    copies = rng.integers(0, 300, 3000)
+    vertices = base[copies] + rng.uniform(-2e-10, 2e-10, (3000, 3))  # equal after rounding to 1e-8 mm
+    kept, inverse = _merge_vertices(vertices)
+    firsts = np.array([np.flatnonzero(copies == c)[0] for c in np.unique(copies)])
+    assert len(kept) == len(firsts)
+    assert np.array_equal(np.sort(kept, axis=0), np.sort(vertices[firsts], axis=0))
+    assert np.array_equal(kept[inverse[firsts]], vertices[firsts])
+    assert np.allclose(kept[inverse], vertices, atol=1e-9)

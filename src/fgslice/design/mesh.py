@@ -206,18 +206,38 @@ _HASH = np.array([0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9], d
 
 
 def _sorted_groups(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Equal keys grouped by one argsort: the sorting order, a mask over the sorted keys
-    marking each group's first, and each key's group index (groups numbered in key order).
+    """Equal keys grouped by one argsort: the sorting order (the keys of a group in no
+    particular order: :func:`_group_firsts` gives each group's first in input order), a
+    mask over the sorted keys marking each group's start, and each key's group index
+    (groups numbered in key order).
 
-    The sort is stable, so a group's first is its first key in input order; on a mesh's
-    vertex and edge keys it is also the faster one (3DBenchy: the mesh loads in about
-    0.23 s instead of 0.30-0.44 s)."""
-    order = np.argsort(keys, kind="stable")
+    numpy's quicksort is vectorized (AVX2, AVX-512) and sorts 64-bit keys 3-4x faster
+    than its stable sort, a timsort (3DBenchy's 675 k vertex keys: 16 against 70 ms)."""
+    order = np.argsort(keys, kind="quicksort")
     sorted_keys = keys[order]
     new = np.concatenate(([True], sorted_keys[1:] != sorted_keys[:-1]))
     inverse = np.empty(len(keys), dtype=np.int64)
     inverse[order] = np.cumsum(new) - 1
     return order, new, inverse
+
+
+def _group_firsts(order: np.ndarray, new: np.ndarray) -> np.ndarray:
+    """Each group of :func:`_sorted_groups` by its first key in input order (the smallest
+    index among its keys), in group order."""
+    return np.minimum.reduceat(order, np.flatnonzero(new))
+
+
+def _stable_order(keys: np.ndarray) -> np.ndarray:
+    """``np.argsort(keys, kind="stable")`` of integer keys, as the quicksort of the
+    distinct keys ``key * n + index`` (``n`` keys): 2-3x faster than numpy's stable sort
+    on 64-bit keys (see :func:`_sorted_groups`). Keys that could overflow that product,
+    or negative ones, take the stable sort."""
+    n = len(keys)
+    if n == 0:
+        return np.empty(0, dtype=np.intp)
+    if int(keys.min()) < 0 or int(keys.max()) >= (np.iinfo(np.int64).max - n) // n:
+        return np.argsort(keys, kind="stable")
+    return np.argsort(keys.astype(np.int64) * n + np.arange(n), kind="quicksort")
 
 
 def _merge_vertices(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -233,7 +253,7 @@ def _merge_vertices(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     with np.errstate(over="ignore"):
         key = q.view(np.uint64) @ _HASH
     order, new, inverse = _sorted_groups(key)
-    first = order[new]
+    first = _group_firsts(order, new)
     if not np.array_equal(np.take(np.take(q, first, axis=0), inverse, axis=0), q):
         _, first, inverse = np.unique(q, axis=0, return_index=True, return_inverse=True)
         inverse = inverse.reshape(-1)
@@ -420,7 +440,7 @@ def _sorted_by_height(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarr
     rank[order] = np.arange(len(order))
     faces = rank[faces]
     lowest = np.minimum(np.minimum(faces[:, 0], faces[:, 1]), faces[:, 2])
-    return np.take(vertices, order, axis=0), np.take(faces, np.argsort(lowest, kind="stable"), axis=0)
+    return np.take(vertices, order, axis=0), np.take(faces, _stable_order(lowest), axis=0)
 
 
 def _edge_tables(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -590,7 +610,7 @@ def _stitch(node_ids: np.ndarray, points: np.ndarray, plane: np.ndarray, success
     last = np.r_[first[1:], len(walk)] - 1
     is_open = succ[walk[last]] < 0
     keep = np.flatnonzero(label % 2 == 0)
-    keep = keep[np.argsort(label[keep], kind="stable")]
+    keep = keep[_stable_order(label[keep])]
     label, is_open = label[keep], is_open[keep]
     entered = (last - first + 1)[keep]
     backward = np.add.reduceat(walk % 2, first)[keep]
@@ -670,7 +690,7 @@ def _pair_equal(nodes: np.ndarray, is_end: np.ndarray) -> np.ndarray:
     """
     n = len(nodes)
     position = np.arange(n)
-    order = np.argsort(nodes * 2 + is_end, kind="stable")
+    order = _stable_order(nodes * 2 + is_end)
     sorted_nodes = nodes[order]
     run_start = np.r_[True, sorted_nodes[1:] != sorted_nodes[:-1]]
     first = np.maximum.accumulate(np.where(run_start, position, 0))
