@@ -311,3 +311,22 @@ def test_merged_vertices_keep_each_groups_first_vertex_in_input_order():
     assert np.array_equal(np.sort(kept, axis=0), np.sort(vertices[firsts], axis=0))
     assert np.array_equal(kept[inverse[firsts]], vertices[firsts])
     assert np.allclose(kept[inverse], vertices, atol=1e-9)
+
+
+def test_vertices_by_height_keep_ties_in_input_order():
+    """Vertices at equal heights (-0.0 and 0.0 among them) stay in input order, and faces
+    with the same lowest vertex too: the numbering the stable sorts give."""
+    from fgslice.design.mesh import _sorted_by_height
+
+    rng = np.random.default_rng(8)
+    vertices = rng.random((2000, 3))
+    vertices[:, 2] = rng.choice([-0.0, 0.0, 0.2, 0.4, 1.0], 2000)
+    faces = rng.integers(0, 2000, (3000, 3))
+    got_vertices, got_faces = _sorted_by_height(vertices, faces)
+    order = np.argsort(vertices[:, 2], kind="stable")
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    renumbered = rank[faces]
+    lowest = renumbered.min(axis=1)
+    assert np.array_equal(got_vertices, vertices[order])
+    assert np.array_equal(got_faces, renumbered[np.argsort(lowest, kind="stable")])

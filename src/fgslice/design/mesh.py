@@ -434,8 +434,11 @@ class _Tables:
 
 def _sorted_by_height(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Vertices renumbered by height and faces by lowest vertex (both stable), so that the
-    triangles and edges a plane crosses lie close together in memory."""
-    order = np.argsort(vertices[:, 2], kind="stable")
+    triangles and edges a plane crosses lie close together in memory. The heights are
+    ranked first (equal heights, -0.0 and 0.0 too, share a rank), so that both sorts are
+    :func:`_stable_order`'s."""
+    _, height_rank = np.unique(vertices[:, 2], return_inverse=True)
+    order = _stable_order(height_rank.reshape(-1))
     rank = np.empty_like(order)
     rank[order] = np.arange(len(order))
     faces = rank[faces]
