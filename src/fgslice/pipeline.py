@@ -328,7 +328,7 @@ def slice_to_gcode(
     attributes = checked_attributes(design, settings)
     levels = state_levels(attributes.ranges, attributes.cover, settings) if attributes is not None else None
     palette = make_palette(len(design.materials), settings.colors, settings.palette, levels)
-    dialect = dialect_for(settings, palette)
+    dialect = dialect_for(settings, palette, attributes is not None and "flow" in attributes.names)
     placement = place_design(design, settings)
     layers = layer_heights(design, settings)
     check_resources(design, settings, len(layers))

@@ -51,6 +51,10 @@ def _unsupported(owner: str, name: str) -> DesignError:
 def __getattr__(name: str):
     if name.startswith("__"):
         raise AttributeError(name)
+    from fgslice.compat import pyvcad_v3
+
+    if name in pyvcad_v3.__all__:
+        return getattr(pyvcad_v3, name)
     raise _unsupported("pyvcad", name)
 
 
@@ -229,6 +233,18 @@ class Node:
     def _build(self, convert) -> nodes.Node:
         raise NotImplementedError
 
+    def set_attribute(self, name, attribute) -> None:
+        """OpenVCAD 3: attach ``attribute`` as ``name`` (:mod:`fgslice.compat.pyvcad_v3`)."""
+        from fgslice.compat import pyvcad_v3
+
+        pyvcad_v3.set_attribute(self, name, attribute)
+
+    def set_attribute_conflict_resolver(self, name, resolver) -> None:
+        """OpenVCAD 3: how the children's attribute ``name`` combines where they overlap."""
+        from fgslice.compat import pyvcad_v3
+
+        pyvcad_v3.set_attribute_conflict_resolver(self, name, resolver)
+
 
 def _centred(center, node: nodes.Node) -> nodes.Node:
     return node if not any(center) else api.translate(center, node)
@@ -353,8 +369,9 @@ def _bind(owner: str, names: tuple[str, ...], args: tuple, kwargs: dict, default
 
 class _Children(Node):
     """Union / Intersection: ``([k][, flag][, [children]])`` or the children themselves
-    (OpenVCAD 3). A smoothing radius ``k`` must be 0; the distribution flag is accepted
-    (overlaps take the first child's materials); ``add_child`` adds one child."""
+    (OpenVCAD 3). A union blends its children with a smoothing radius ``k`` > 0 (mm;
+    :mod:`fgslice.design.smooth`), an intersection's must be 0; the distribution flag is
+    accepted (overlaps take the first child's materials); ``add_child`` adds one child."""
 
     _make = None
 
@@ -364,9 +381,10 @@ class _Children(Node):
         if args and all(isinstance(a, Node) for a in args):
             args = (list(args),)
         rest = list(args)
+        self._k = 0.0
         if rest and not isinstance(rest[0], bool) and isinstance(rest[0], numbers.Real):
-            k = float(rest.pop(0))
-            if k != 0:
+            k = self._k = float(rest.pop(0))
+            if k < 0 or (k != 0 and not isinstance(self, Union)):
                 raise DesignError(f"{owner}: a smooth blend (k = {k:g}) is not supported by fgslice",
                                   hint=f"use k = 0, or {owner}(False, [children])")
         if rest and isinstance(rest[0], bool):
@@ -385,7 +403,12 @@ class _Children(Node):
     def _build(self, convert) -> nodes.Node:
         if not self._children:
             raise DesignError(f"{type(self).__name__} has no children", hint="add them with add_child(node)")
-        return type(self)._make(*(convert(c) for c in self._children))
+        children = [convert(c) for c in self._children]
+        if self._k > 0:
+            from fgslice.design.smooth import SmoothUnion
+
+            return SmoothUnion(self._k, children)
+        return type(self)._make(*children)
 
 
 class Union(_Children):
@@ -529,17 +552,23 @@ def to_node(root: Node) -> nodes.Node:
     """The fgslice node tree of ``root``; errors name the line where the failing node was made."""
     if not isinstance(root, Node):
         raise DesignError(f"the design's root must be a pyvcad node, got {type(root).__name__}")
+    from fgslice.compat import pyvcad_v3
+
     building: set[int] = set()
+    above: list[frozenset[str]] = [frozenset()]  # attribute names set by the ancestors (OpenVCAD 3)
 
     def convert(node: Node) -> nodes.Node:
         if id(node) in building:
             raise context.locate(DesignError(f"{type(node).__name__} contains itself"), node._where)
         building.add(id(node))
+        above.append(above[-1] | pyvcad_v3.produced(node))
         try:
-            return _stamp(node._build(convert), node._where)
+            built = node._build(convert)
+            return _stamp(pyvcad_v3.dress(node, built, above[-2]), node._where)
         except FgsliceError as error:
             raise context.locate(error, node._where)
         finally:
+            above.pop()
             building.discard(id(node))
 
     return convert(root)

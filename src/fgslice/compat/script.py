@@ -2,7 +2,8 @@
 
 The script runs as Python, in a fresh ``__main__`` namespace, with ``pyvcad`` and
 ``pyvcad_rendering`` importable as :mod:`fgslice.compat.pyvcad` and
-:mod:`fgslice.compat.pyvcad_rendering` (``sys.modules`` entries and the script's folder
+:mod:`fgslice.compat.pyvcad_rendering`, and ``numba`` as
+:mod:`fgslice.compat.numba_standin` (``sys.modules`` entries and the script's folder
 on ``sys.path``, both restored afterwards). The design is the root passed to the last
 ``Export``, else to the last ``Render``, else the top-level variable ``root``. Any error —
 the script's own exception, an unsupported pyvcad name or argument, an invalid value — is
@@ -19,7 +20,7 @@ import contextlib
 import sys
 from pathlib import Path
 
-from fgslice.compat import context, pyvcad, pyvcad_rendering
+from fgslice.compat import context, numba_standin, pyvcad, pyvcad_rendering
 from fgslice.design import api, nodes
 from fgslice.design.language import read_design_text
 from fgslice.design.materials import MaterialLibrary
@@ -63,7 +64,7 @@ def _compile(path: Path, source: str):
 @contextlib.contextmanager
 def _pyvcad_importable(folder: Path):
     """``import pyvcad`` / ``pyvcad_rendering`` give fgslice's modules; the folder is on sys.path."""
-    names = {"pyvcad": pyvcad, "pyvcad_rendering": pyvcad_rendering}
+    names = {"pyvcad": pyvcad, "pyvcad_rendering": pyvcad_rendering, "numba": numba_standin}
     saved = {name: sys.modules.get(name) for name in names}
     sys.modules.update(names)
     sys.path.insert(0, str(folder))

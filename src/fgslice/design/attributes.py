@@ -12,6 +12,11 @@ unchanged. Where no attribute of a name encloses a point, the slice's settings d
 Units: ``temperature`` degrees Celsius; ``flow`` percent of the nominal extrusion;
 ``fan`` percent; ``speed`` percent of each feature's speed; ``infill_density`` percent.
 ``flow_rate`` (OpenVCAD's spelling) is read as ``flow``.
+
+Attributes of any other name (OpenVCAD 3's design-intent fields such as ``modulus`` or
+``density``, the channels of a colour) can be attached with ``any_name=True``: they drive
+nothing, ``fgslice check`` lists them, and converters
+(:mod:`fgslice.design.attribute_ops`) can derive machine attributes from them.
 """
 
 from __future__ import annotations
@@ -21,6 +26,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from fgslice.design import nodes
+from fgslice.design.attribute_ops import AttributeOperator
 from fgslice.design.membership import owners
 from fgslice.errors import DesignError, did_you_mean
 
@@ -34,10 +40,13 @@ INSTANTANEOUS = ("fan", "flow", "speed")
 """Attributes that take effect at once, written per extrusion segment."""
 
 
-def canonical_name(name: str, where: nodes.Where = nodes.NOWHERE) -> str:
-    """The attribute name ``name`` stands for (case-insensitive; aliases resolved)."""
+def canonical_name(name: str, where: nodes.Where = nodes.NOWHERE, any_name: bool = False) -> str:
+    """The attribute name ``name`` stands for (case-insensitive; aliases resolved);
+    unknown names are refused unless ``any_name``."""
     key = str(name).strip().lower()
     key = ALIASES.get(key, key)
+    if any_name and key:
+        return key
     if key not in UNITS:
         known = list(UNITS) + list(ALIASES)
         raise DesignError(
@@ -51,13 +60,15 @@ def canonical_name(name: str, where: nodes.Where = nodes.NOWHERE) -> str:
 class Attribute(nodes.Node):
     """``attribute(name, field) { children }``: the process parameter ``name`` graded by
     ``field`` (this node's frame) over the children, which keep their geometry and
-    materials (several children act as their union)."""
+    materials (several children act as their union). ``any_name``: accept a name that
+    drives nothing (see the module docstring)."""
 
     kind = "attribute"
 
-    def __init__(self, name: str, field: nodes.Field, children: Sequence[nodes.Node], where: nodes.Where = nodes.NOWHERE) -> None:
+    def __init__(self, name: str, field: nodes.Field, children: Sequence[nodes.Node], where: nodes.Where = nodes.NOWHERE,
+                 any_name: bool = False) -> None:
         super().__init__(children, where)
-        self.name = canonical_name(name, where)
+        self.name = canonical_name(name, where, any_name)
         self.field = field
         self._body = self.children[0] if len(self.children) == 1 else nodes.Union(self.children, where)
 
@@ -96,8 +107,7 @@ class AttributeFields:
         self._below: dict[int, frozenset[str]] = {}
         names: list[str] = []
         for node, *_ in nodes.walk(root):
-            if isinstance(node, Attribute) and node.name not in names:
-                names.append(node.name)
+            names.extend(n for n in _produced(node) if n not in names)
         self.names = tuple(names)
         self._collect(root)
 
@@ -105,7 +115,7 @@ class AttributeFields:
         """For every node, the attribute names used in its subtree (post-order, no recursion)."""
         order = [node for node, *_ in nodes.walk(root)]
         for node in reversed(order):
-            own = {node.name} if isinstance(node, Attribute) else set()
+            own = set(_produced(node))
             for child in node.children:
                 own |= self._below[id(child)]
             self._below[id(node)] = frozenset(own)
@@ -123,6 +133,8 @@ class AttributeFields:
 
     def _values(self, node: nodes.Node, name: str, x, y, z, ctx: np.ndarray) -> np.ndarray:
         """The values at 1-D points of ``node``'s frame; ``ctx``: the enclosing attribute's."""
+        if isinstance(node, AttributeOperator) and name in node.outputs:
+            return node.evaluate(self, name, x, y, z, ctx)
         if isinstance(node, Attribute) and node.name == name:
             ctx = node.values(x, y, z)
         if name not in self._below[id(node)] or not node.children:
@@ -139,6 +151,13 @@ class AttributeFields:
             if sel.size:
                 out[sel] = self._values(child, name, x[sel], y[sel], z[sel], ctx[sel])
         return out
+
+
+def _produced(node: nodes.Node) -> tuple[str, ...]:
+    """The attribute names ``node`` itself sets."""
+    if isinstance(node, Attribute):
+        return (node.name,)
+    return node.outputs if isinstance(node, AttributeOperator) else ()
 
 
 def attribute_fields(design) -> AttributeFields | None:
@@ -176,3 +195,24 @@ def out_of_limits(name: str, low: float, high: float, settings) -> str | None:
         return None
     return (f"attribute '{name}' ranges {low:.4g} .. {high:.4g} {UNITS[name]} over the part, outside this "
             f"machine's {lo:.4g} .. {hi:.4g} {UNITS[name]}: change the attribute's expression or the profile's limits")
+
+
+def drives(name: str, settings) -> str | None:
+    """What attribute ``name`` commands on the machine of ``settings``
+    (:class:`fgslice.settings.Settings`), None when it has no machine meaning."""
+    if name not in UNITS:
+        return None
+    if name == "temperature":
+        flow = f", with M221 from the '{settings.flow_model}' flow model" if settings.flow_model != "none" else ""
+        return f"nozzle temperature states (M104, levels of {settings.temperature_step:g} C){flow}"
+    if name == "infill_density":
+        if settings.strategy == 2:
+            return "nothing with strategy 2 (every face is filled densely); use strategy 1"
+        return "the sparse infill's density (strategy 1)"
+    return {"flow": "the extrusion per segment (E scaled)", "fan": "the part fan per segment (M106)",
+            "speed": "the feed rate per segment (F scaled)"}[name]
+
+
+INTENT_HINT = ("derive a machine attribute from it: wrap the part in pv.AttributeModifier with a "
+               "LookupTableConverter or ExpressionConverter to temperature, flow_rate or infill_density")
+"""What turns an attribute without machine meaning into one, for ``fgslice check``."""

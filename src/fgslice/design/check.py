@@ -41,6 +41,9 @@ class CheckReport:
         attribute_ranges: attribute name -> (min, max) of its values over the samples of
             the part it covers (units of :data:`fgslice.design.attributes.UNITS`).
         attribute_cover: attribute name -> share of the part's samples it covers (0-1).
+        attribute_drives: attribute name -> what it commands on the machine of the
+            settings checked against; attributes without machine meaning say so, with
+            what would give them one.
         inside_samples: grid points found inside the part.
         spacing: grid step used, mm.
         warnings: problems that still allow slicing.
@@ -55,6 +58,7 @@ class CheckReport:
     fraction_ranges: dict[str, tuple[float, float]] = field(default_factory=dict)
     attribute_ranges: dict[str, tuple[float, float]] = field(default_factory=dict)
     attribute_cover: dict[str, float] = field(default_factory=dict)
+    attribute_drives: dict[str, str] = field(default_factory=dict)
     inside_samples: int = 0
     spacing: float = 0.0
     warnings: list[str] = field(default_factory=list)
@@ -174,7 +178,7 @@ def check_design(design: Design, *, samples: int = DEFAULT_SAMPLES, settings=Non
 def _check_attributes(design: Design, x, y, z, settings, report: CheckReport) -> None:
     """Each attribute's range over the samples inside the part, and an error for each
     range the machine cannot command."""
-    from fgslice.design.attributes import attribute_fields, out_of_limits
+    from fgslice.design.attributes import INTENT_HINT, attribute_fields, drives, out_of_limits
     from fgslice.settings import Settings
 
     fields = attribute_fields(design)
@@ -194,6 +198,10 @@ def _check_attributes(design: Design, x, y, z, settings, report: CheckReport) ->
             continue
         low, high = float(values.min()), float(values.max())
         report.attribute_ranges[name] = (low, high)
+        driven = drives(name, settings)
+        report.attribute_drives[name] = driven or f"nothing on this machine: {INTENT_HINT}"
+        if driven is None:
+            continue
         problem = out_of_limits(name, low, high, settings)
         if problem:
             report.errors.append(problem)
@@ -214,7 +222,9 @@ def format_report(report: CheckReport) -> str:
     from fgslice.design.attributes import UNITS
 
     for name, (lo, hi) in report.attribute_ranges.items():
-        lines.append(f"attribute {name:<14} {lo:.4g} .. {hi:.4g} {UNITS[name]}")
+        unit = f" {UNITS[name]}" if name in UNITS else ""
+        drives = report.attribute_drives.get(name)
+        lines.append(f"attribute {name:<14} {lo:.4g} .. {hi:.4g}{unit}" + (f" -> drives {drives}" if drives else ""))
     lines.append(f"nodes: {report.node_count}")
     lines.append(f"samples inside the part: {report.inside_samples} (grid step {report.spacing:.3g} mm)")
     lines.extend(f"note: {n}" for n in report.notes)

@@ -17,8 +17,13 @@ Temperatures and flows are whole numbers (Marlin keeps integer targets and perce
 ``M104`` does not wait: the nozzle follows while printing; ``temperature_lead_s`` issues
 the mixing hotend's temperature changes ahead of the mixture's
 (:mod:`fgslice.planning.state_leads`).
-The temperature (foaming) and template dialects already give the temperature another
-meaning or none, and refuse these palettes.
+The temperature (foaming) dialect takes a temperature attribute on a single material:
+its states are then the temperature levels alone (``M104 S<t>``, and ``M221`` from the
+flow model). When the design grades the flow itself (a ``flow`` attribute: its E scaling
+per segment already compensates), the flow model's ``M221`` is left out so the flow is
+not compensated twice. The template dialect gives the temperature no meaning and refuses
+these palettes; so does the temperature dialect with several materials (their mixture
+is its temperature already).
 """
 
 from __future__ import annotations
@@ -37,8 +42,10 @@ class StateDialect(Dialect):
     """The dialect of ``settings`` for the material part of each color, with the
     temperature commands added (see the module notes)."""
 
-    def __init__(self, settings: Settings, palette: StatePalette) -> None:
-        if settings.dialect not in DIALECTS:
+    def __init__(self, settings: Settings, palette: StatePalette, design_flow: bool = False) -> None:
+        self.foaming = settings.dialect == "temperature" and palette.materials.size == 1
+        self.model_flow = settings.flow_model != "none" and not design_flow
+        if settings.dialect not in DIALECTS and not self.foaming:
             raise SettingsError(
                 f"the temperature attribute grades the nozzle temperature, which the {settings.dialect} dialect "
                 "does not command as a state of its own",
@@ -77,8 +84,8 @@ class StateDialect(Dialect):
         target = round(float(p.temperatures[color]))
         tool = f"T{material} " if self._tool() else ""
         lines = [f"M104 {tool}S{target}"] if heat else []
-        lines += self.base._commands(material) if new_material else []
-        if heat and self.settings.flow_model != "none":
+        lines += self.base._commands(material) if new_material and not self.foaming else []
+        if heat and self.model_flow:
             lines.append(f"M221 S{round(float(flow_percent(self.settings.flow_model, float(target))))}")
         return lines
 
@@ -87,9 +94,10 @@ class StateDialect(Dialect):
         return self.base.start_commands()
 
 
-def dialect_for(settings: Settings, palette) -> Dialect:
+def dialect_for(settings: Settings, palette, design_flow: bool = False) -> Dialect:
     """The dialect of ``settings`` for ``palette``: :class:`StateDialect` for temperature
-    states, else :func:`~fgslice.machine.dialects.make_dialect`."""
+    states (``design_flow``: the design grades the flow itself), else
+    :func:`~fgslice.machine.dialects.make_dialect`."""
     if isinstance(palette, StatePalette):
-        return StateDialect(settings, palette)
+        return StateDialect(settings, palette, design_flow)
     return make_dialect(settings, palette)
