@@ -296,3 +296,61 @@ root = bar
     assert all(np.diff(per_mm) > 0)
     # band centres at x = -30 .. 30: densities 25, 35, 45, 55 %
     assert per_mm[-1] / per_mm[0] == pytest.approx(55 / 25, rel=0.25)
+
+
+def test_color_rgb_bar_on_a_two_filament_mixing_hotend_follows_the_colour(tmp_path):
+    design = _design(tmp_path, HEADER + """
+bar = pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(60, 10, 4))
+bar.set_attribute(pv.DefaultAttributes.COLOR_RGB,
+                  pv.Vec3Attribute("clamp(0, 0.5 - x/60, 1)", "0.0", "clamp(0, 0.5 + x/60, 1)"))
+root = bar
+""")
+    _, program, stats = _slice(design, tmp_path, profile="marlin-mixing", colors=8, strategy=1,
+                               filament_colors="#ff0000,#0000ff")
+    mid = (program.start + program.end)[:, :2] / 2 - np.array(stats["placement_offset"][:2])
+    printed = (program.e > 0) & (program.length > 0) & (program.layer == 5) & (np.abs(mid) <= [30, 5]).all(axis=1)
+    x = mid[printed, 0]
+    blue = np.array([program.states[s].mix_fractions(2)[1] for s in program.state[printed]])
+    # red + blue light in linear RGB is the mixture itself: the blue share is the blue channel
+    assert np.abs(blue - (0.5 + x / 60)).max() <= 1 / 8 + 0.02
+    report = format_report(check_design(design, settings=load_settings("marlin-mixing", {
+        "filament_colors": "#ff0000,#0000ff"})))
+    assert "color_rgb.r" in report and "-> drives the mixture of the filaments #ff0000,#0000ff" in report
+
+
+def test_a_colour_without_filament_colours_drives_nothing_and_says_how_to(tmp_path):
+    design = _design(tmp_path, dict(SCRIPTS)["getting-started 14"])
+    report = check_design(design, settings=load_settings("marlin-mixing", {}))
+    assert "filament_colors" in report.attribute_drives["color_rgba.r"]
+    assert [m.name for m in report.materials] == ["default"]
+
+
+def test_unmixing_finds_the_nearest_reachable_colour_in_cielab():
+    from fgslice.design.color_mix import unmix
+
+    cyan_magenta_yellow = ((0.0, 1.0, 1.0), (1.0, 0.0, 1.0), (1.0, 1.0, 0.0))
+    f = unmix(np.array([[0.0, 1.0, 1.0], [1.0, 0.5, 0.5], [0.5, 0.5, 0.5]]), cyan_magenta_yellow)
+    np.testing.assert_allclose(f.sum(axis=1), 1.0)
+    assert f[0, 0] == pytest.approx(1.0) and f[1, 0] < 0.05  # pure cyan; a pink has no cyan
+    np.testing.assert_allclose(f[2], [1 / 3] * 3, atol=0.05)  # grey: equal shares
+
+
+def test_fuzzy_skin_cylinder_outer_wall_deviation_grows_with_the_field(tmp_path):
+    design = _design(tmp_path, HEADER + """
+cylinder = pv.Cylinder(pv.Vec3(0, 0, 0), 10.0, 10.0)
+cylinder.set_attribute(pv.DefaultAttributes.FUZZY_SKIN_THICKNESS, pv.FloatAttribute("0.035 * (z + 5)"))
+cylinder.set_attribute(pv.DefaultAttributes.FUZZY_SKIN_POINT_DISTANCE, pv.FloatAttribute(0.6))
+root = cylinder
+""")
+    _, program, stats = _slice(design, tmp_path, layer_height=0.5, bead_width=0.5)
+    roles = np.array(program.roles + [""])[program.role]
+    outer = (program.e > 0) & (program.length > 0) & (roles == "External perimeter")
+    centre = np.array(stats["placement_offset"][:2])
+    radius = np.hypot(*(program.end[outer, :2] - centre).T)
+    layers = np.unique(program.layer[outer])
+    spread = np.array([np.abs(radius[program.layer[outer] == k] - 9.75).max() for k in layers])
+    expected = 0.035 * (np.array(program.layer_z)[layers] - 0.25)  # the field at mid-layer
+    assert np.corrcoef(expected, spread)[0, 1] > 0.95
+    assert (spread <= expected + 0.1).all() and (spread[-3:] >= 0.5 * expected[-3:]).all()
+    again = _slice(design, tmp_path, layer_height=0.5, bead_width=0.5)[1]
+    np.testing.assert_array_equal(again.end, program.end)  # seeded: the same texture every time

@@ -38,6 +38,7 @@ import numpy as np
 import shapely
 
 from fgslice.design.base import Design
+from fgslice.design.color_mix import mix_colors
 from fgslice.errors import FgsliceError, SliceError
 from fgslice.executor import Consumer, default_jobs, map_ordered
 from fgslice.guards import check_resources
@@ -63,6 +64,7 @@ from fgslice.slicing.plan_layers import layer_heights, place_design
 from fgslice.slicing.regions import polygonal_each, slice_layer
 from fgslice.slicing.states import StatePalette, field_for, make_palette, material_palette, state_levels
 from fgslice.toolpaths import strategy1, strategy2
+from fgslice.toolpaths.fuzzy_skin import FuzzySkin
 from fgslice.toolpaths.paths import Path, Role
 from fgslice.toolpaths.skirt import skirt_paths
 from fgslice.toolpaths.walls import simplify_outline
@@ -86,6 +88,7 @@ class SliceJob:
         repeats: strategy 2: the layers this process has finished, for later layers whose
             regions repeat theirs (``planning.repeats``; the one part each process changes).
         grading: the design's fan, flow and speed attributes (``machine.grading``), if any.
+        fuzzy: the design's fuzzy-skin attributes (``toolpaths.fuzzy_skin``), if any.
     """
 
     design: Design
@@ -97,6 +100,7 @@ class SliceJob:
     outlines: list[shapely.Geometry] = field(default_factory=list)
     repeats: RepeatedLayers = field(default_factory=RepeatedLayers)
     grading: SegmentGrading | None = None
+    fuzzy: FuzzySkin | None = None
 
 
 @dataclass
@@ -184,7 +188,8 @@ def _layer_result(job: SliceJob, index: int) -> LayerResult:
     """:func:`_layer_task`'s work."""
     s = job.settings
     i, z_top, height = job.layers[index]
-    repeats = job.repeats if s.strategy == 2 and index > 0 else None  # the first layer holds the skirt
+    # the first layer holds the skirt; a fuzzy skin differs on every layer
+    repeats = job.repeats if s.strategy == 2 and index > 0 and job.fuzzy is None else None
     if s.strategy == 2:
         regions = slice_layer(job.design, job.placement, job.palette, i, z_top, height, s)
         repeated = repeats.find(regions) if repeats is not None else None
@@ -200,6 +205,8 @@ def _layer_result(job: SliceJob, index: int) -> LayerResult:
         above = job.outlines[index + 1 : index + 1 + s.top_layers]
         field_ = field_for(job.design, job.placement, job.palette, s)
         paths, short = strategy1.layer_paths(regions, below, above, field_, job.palette, s)
+    if job.fuzzy is not None:
+        paths.paths = job.fuzzy.apply(paths.paths, i, z_top - height / 2)
     if index == 0:
         paths.paths = skirt_paths(regions.outline, s) + paths.paths
     colors = len({p.color for p in paths.paths if p.color >= 0})
@@ -325,6 +332,7 @@ def slice_to_gcode(
     """
     started = time.perf_counter()
     jobs = default_jobs() if jobs is None else max(1, jobs)
+    design = mix_colors(design, settings)
     attributes = checked_attributes(design, settings)
     levels = state_levels(attributes.ranges, attributes.cover, settings) if attributes is not None else None
     palette = make_palette(len(design.materials), settings.colors, settings.palette, levels)
@@ -334,7 +342,8 @@ def slice_to_gcode(
     check_resources(design, settings, len(layers))
     bed_center = np.array([settings.bed_x / 2, settings.bed_y / 2])
     job = SliceJob(design, settings, palette, placement, layers, bed_center,
-                   grading=SegmentGrading.of(attributes, placement.offset, settings))
+                   grading=SegmentGrading.of(attributes, placement.offset, settings),
+                   fuzzy=FuzzySkin.of(attributes, placement.offset))
     if settings.strategy == 2:
         # one plane per layer task (strategy 1 sections batches of layers); a thumbnail
         # process forked later shares the tables too

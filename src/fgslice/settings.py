@@ -51,6 +51,7 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     temperature_a: Annotated[float, Meta(ge=0, le=500, description="nozzle temperature at 100% material A (temperature dialect), C")] = 190.0
     temperature_b: Annotated[float, Meta(ge=0, le=500, description="nozzle temperature at 100% material B (temperature dialect), C")] = 225.0
     flow_model: Annotated[Literal["none", "pla", "tpu"], Meta(description="foaming flow compensation polynomial (M221), for the temperature dialect and temperature attributes")] = "none"
+    filament_colors: Annotated[str, Meta(description="colours of the loaded filaments, one per channel or tool, '#rrggbb' comma-separated: a design's COLOR_RGB(A) attribute is printed as their nearest mixture")] = ""
     state_template: Annotated[str, Meta(description="template dialect: text emitted per state change; placeholders {color}, {f0}..{f5} (0-1), {pct0}..{pct5} (0-100), {pwm0}..{pwm5} (0-255), {temperature}")] = ""
 
     # -- process -------------------------------------------------------------------

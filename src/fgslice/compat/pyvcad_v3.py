@@ -85,7 +85,9 @@ class _Names:
 DefaultAttributes = _Names()
 
 MACHINE_NAMES = {"temperature": ("temperature", 1.0), "flow_rate": ("flow", 100.0),
-                 "infill_density": ("infill_density", 1.0)}
+                 "infill_density": ("infill_density", 1.0),
+                 "fuzzy_skin_thickness": ("fuzzy_skin_thickness", 1.0),
+                 "fuzzy_skin_point_distance": ("fuzzy_skin_point_distance", 1.0)}
 """OpenVCAD attribute name -> (fgslice attribute, factor from OpenVCAD's unit to fgslice's)."""
 
 
@@ -452,7 +454,7 @@ def dress(node: v2.Node, built: nodes.Node, above: frozenset[str]) -> nodes.Node
             if "volume_fractions" not in above:
                 built = api.fgrade([_node_field(f) for f in attribute.fields], attribute.materials, built)
             continue
-        for channel, field in _channels(name, attribute):
+        for channel, field in reversed(_channels(name, attribute)):
             if channel not in above:
                 built = Attribute(channel, nodes.Field(_node_field(field)), (built,), any_name=True)
     return built

@@ -10,7 +10,9 @@ and ``difference`` take their first child's). Geometry and materials pass throug
 unchanged. Where no attribute of a name encloses a point, the slice's settings decide.
 
 Units: ``temperature`` degrees Celsius; ``flow`` percent of the nominal extrusion;
-``fan`` percent; ``speed`` percent of each feature's speed; ``infill_density`` percent.
+``fan`` percent; ``speed`` percent of each feature's speed; ``infill_density`` percent;
+``fuzzy_skin_thickness`` and ``fuzzy_skin_point_distance`` mm (outer walls,
+:mod:`fgslice.toolpaths.fuzzy_skin`).
 ``flow_rate`` (OpenVCAD's spelling) is read as ``flow``.
 
 Attributes of any other name (OpenVCAD 3's design-intent fields such as ``modulus`` or
@@ -30,7 +32,8 @@ from fgslice.design.attribute_ops import AttributeOperator
 from fgslice.design.membership import owners
 from fgslice.errors import DesignError, did_you_mean
 
-UNITS = {"temperature": "C", "flow": "%", "fan": "%", "speed": "%", "infill_density": "%"}
+UNITS = {"temperature": "C", "flow": "%", "fan": "%", "speed": "%", "infill_density": "%",
+         "fuzzy_skin_thickness": "mm", "fuzzy_skin_point_distance": "mm"}
 """Every attribute name with the unit of its values."""
 
 ALIASES = {"flow_rate": "flow"}
@@ -175,7 +178,7 @@ def limits(settings) -> dict[str, tuple[float, float]]:
     ``max_nozzle_temperature``; flow within ``min_flow_percent`` .. ``max_flow_percent``
     and no more than ``max_cross_section_mm2`` allows for the bead; fan 0-100; speed from
     1% to the share that brings the fastest feature to ``travel_speed``; infill density
-    0-100."""
+    0-100; fuzzy skin thickness 0 to the bead width, point distance 0.1-100 mm."""
     fastest = max(settings.print_speed, settings.outer_wall_speed, settings.infill_speed, settings.first_layer_speed)
     return {
         "temperature": (settings.min_extrude_temperature, settings.max_nozzle_temperature),
@@ -184,6 +187,8 @@ def limits(settings) -> dict[str, tuple[float, float]]:
         "fan": (0.0, 100.0),
         "speed": (1.0, 100.0 * settings.travel_speed / fastest),
         "infill_density": (0.0, 100.0),
+        "fuzzy_skin_thickness": (0.0, settings.bead_width),
+        "fuzzy_skin_point_distance": (0.1, 100.0),
     }
 
 
@@ -209,6 +214,10 @@ def drives(name: str, settings) -> str | None:
         if settings.strategy == 2:
             return "nothing with strategy 2 (every face is filled densely); use strategy 1"
         return "the sparse infill's density (strategy 1)"
+    if name == "fuzzy_skin_thickness":
+        return "fuzzy skin on outer walls: each point moved across the wall by up to this"
+    if name == "fuzzy_skin_point_distance":
+        return "fuzzy skin on outer walls: the distance between its points"
     return {"flow": "the extrusion per segment (E scaled)", "fan": "the part fan per segment (M106)",
             "speed": "the feed rate per segment (F scaled)"}[name]
 

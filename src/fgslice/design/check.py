@@ -105,6 +105,10 @@ def check_design(design: Design, *, samples: int = DEFAULT_SAMPLES, settings=Non
     """Inspect ``design`` on a grid of about ``samples`` points along its longest side;
     ``settings`` (:class:`fgslice.settings.Settings`) give the machine's limits of the
     process attributes (the defaults when None)."""
+    if settings is not None:
+        from fgslice.design.color_mix import mix_colors
+
+        design = mix_colors(design, settings)
     bounds = design.bounds()
     node_count = design.node_count if isinstance(design, NodeDesign) else 0
     report = CheckReport(list(design.materials), bounds, node_count)
@@ -199,12 +203,31 @@ def _check_attributes(design: Design, x, y, z, settings, report: CheckReport) ->
         low, high = float(values.min()), float(values.max())
         report.attribute_ranges[name] = (low, high)
         driven = drives(name, settings)
-        report.attribute_drives[name] = driven or f"nothing on this machine: {INTENT_HINT}"
+        report.attribute_drives[name] = driven or _undriven(design, name, settings)
         if driven is None:
             continue
         problem = out_of_limits(name, low, high, settings)
         if problem:
             report.errors.append(problem)
+
+
+def _undriven(design: Design, name: str, settings) -> str:
+    """What attribute ``name``, which has no machine meaning of its own, does on this
+    machine: a colour channel may drive the mixture (:mod:`fgslice.design.color_mix`)."""
+    from fgslice.design.attributes import INTENT_HINT
+    from fgslice.design.color_mix import COLOR_ATTRIBUTES, ColorMix
+
+    if name.partition(".")[0] not in COLOR_ATTRIBUTES:
+        return f"nothing on this machine: {INTENT_HINT}"
+    root = getattr(design, "root", None)
+    if isinstance(root, ColorMix) and name in root.channels:
+        return f"the mixture of the filaments {settings.filament_colors} nearest to the colour (CIELAB)"
+    if isinstance(root, ColorMix):
+        return "nothing: the other colour attribute decides the mixture"
+    if not settings.filament_colors:
+        return ("nothing on this machine: declare the loaded filaments' colours (filament_colors = "
+                "'#rrggbb,#rrggbb' in the profile) to print the colour as their mixture")
+    return "nothing: the design's volume fractions decide the mixture"
 
 
 def format_report(report: CheckReport) -> str:

@@ -877,6 +877,7 @@ class NodeDesign(Design):
         from fgslice.design.materials import builtin_library
 
         library = library or builtin_library()
+        self.library = library
         self.root = root
         self.hint_bounds = hint_bounds
         self.voxel_size = voxel_size
