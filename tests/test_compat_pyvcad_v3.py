@@ -354,3 +354,27 @@ root = cylinder
     assert (spread <= expected + 0.1).all() and (spread[-3:] >= 0.5 * expected[-3:]).all()
     again = _slice(design, tmp_path, layer_height=0.5, bead_width=0.5)[1]
     np.testing.assert_array_equal(again.end, program.end)  # seeded: the same texture every time
+
+
+def test_feature_speed_attributes_set_each_segments_feed_rate(tmp_path):
+    design = _design(tmp_path, HEADER + """
+bar = pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(60, 20, 2))
+bar.set_attribute(pv.DefaultAttributes.EXTERNAL_PERIMETER_SPEED, pv.FloatAttribute("40 + x/2"))
+half = pv.RectPrism(pv.Vec3(15, 0, 0), pv.Vec3(30, 20, 2))
+half.set_attribute(pv.DefaultAttributes.INFILL_SPEED, pv.FloatAttribute(90.0))
+root = pv.Union(half, bar)
+""")
+    settings, program, stats = _slice(design, tmp_path, strategy=1)
+    roles = np.array(program.roles + [""])[program.role]
+    mid = (program.start + program.end)[:, :2] / 2 - np.array(stats["placement_offset"][:2])
+    printed = (program.e > 0) & (program.length > 0) & (program.layer == 3)
+    outer = printed & (roles == "External perimeter") & (np.abs(mid[:, 0]) < 29.5)
+    # the half owns its points: the bar's outer wall speed holds where the half is not
+    left = outer & (mid[:, 0] < 0)
+    np.testing.assert_allclose(program.feed[left] / 60, 40 + mid[left, 0] / 2, atol=0.6)
+    infill = printed & (roles == "Internal infill")
+    inside_half = infill & (mid[:, 0] > 1)
+    assert np.allclose(program.feed[inside_half] / 60, 90) and inside_half.sum() > 10
+    assert np.allclose(program.feed[infill & (mid[:, 0] < -1)] / 60, settings.infill_speed)
+    inner = printed & (roles == "Perimeter")
+    assert np.allclose(program.feed[inner] / 60, settings.print_speed)

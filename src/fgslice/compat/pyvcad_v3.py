@@ -40,7 +40,7 @@ from fgslice.compat import pyvcad as v2
 from fgslice.compat.numba_standin import CFunc
 from fgslice.design import api, nodes
 from fgslice.design.attribute_ops import AverageFractions, ConvertAttributes, Reducer, ResolveConflicts
-from fgslice.design.attributes import Attribute
+from fgslice.design.attributes import ROLE_SPEEDS, Attribute
 from fgslice.design.expressions import compile_expression
 from fgslice.errors import DesignError
 
@@ -87,7 +87,8 @@ DefaultAttributes = _Names()
 MACHINE_NAMES = {"temperature": ("temperature", 1.0), "flow_rate": ("flow", 100.0),
                  "infill_density": ("infill_density", 1.0),
                  "fuzzy_skin_thickness": ("fuzzy_skin_thickness", 1.0),
-                 "fuzzy_skin_point_distance": ("fuzzy_skin_point_distance", 1.0)}
+                 "fuzzy_skin_point_distance": ("fuzzy_skin_point_distance", 1.0),
+                 **{name: (name, 1.0) for name in ROLE_SPEEDS}}
 """OpenVCAD attribute name -> (fgslice attribute, factor from OpenVCAD's unit to fgslice's)."""
 
 
@@ -462,7 +463,7 @@ def dress(node: v2.Node, built: nodes.Node, above: frozenset[str]) -> nodes.Node
 
 def _resolver_channels(name: str, built: nodes.Node) -> list[str]:
     """The fgslice attribute names below ``built`` that the OpenVCAD attribute ``name`` became."""
-    from fgslice.design.attributes import AttributeFields
+    from fgslice.design.attributes import ROLE_SPEEDS, AttributeFields
 
     present = AttributeFields(built).names
     target = _fgslice_name(name)[0]

@@ -12,7 +12,7 @@ unchanged. Where no attribute of a name encloses a point, the slice's settings d
 Units: ``temperature`` degrees Celsius; ``flow`` percent of the nominal extrusion;
 ``fan`` percent; ``speed`` percent of each feature's speed; ``infill_density`` percent;
 ``fuzzy_skin_thickness`` and ``fuzzy_skin_point_distance`` mm (outer walls,
-:mod:`fgslice.toolpaths.fuzzy_skin`).
+:mod:`fgslice.toolpaths.fuzzy_skin`); the feature speeds of :data:`ROLE_SPEEDS` mm/s.
 ``flow_rate`` (OpenVCAD's spelling) is read as ``flow``.
 
 Attributes of any other name (OpenVCAD 3's design-intent fields such as ``modulus`` or
@@ -32,14 +32,25 @@ from fgslice.design.attribute_ops import AttributeOperator
 from fgslice.design.membership import owners
 from fgslice.errors import DesignError, did_you_mean
 
+ROLE_SPEEDS = {
+    "external_perimeter_speed": ("External perimeter",),
+    "perimeter_speed": ("Perimeter",),
+    "infill_speed": ("Internal infill",),
+    "solid_infill_speed": ("Solid infill", "Bottom solid infill"),
+    "top_solid_infill_speed": ("Top solid infill",),
+}
+"""Absolute speed attributes (mm/s, PrusaSlicer's and OpenVCAD's names) -> the path roles
+(``;TYPE:`` names) whose feed rate they set per segment, instead of the feature's speed
+times ``speed``."""
+
 UNITS = {"temperature": "C", "flow": "%", "fan": "%", "speed": "%", "infill_density": "%",
-         "fuzzy_skin_thickness": "mm", "fuzzy_skin_point_distance": "mm"}
+         "fuzzy_skin_thickness": "mm", "fuzzy_skin_point_distance": "mm", **dict.fromkeys(ROLE_SPEEDS, "mm/s")}
 """Every attribute name with the unit of its values."""
 
 ALIASES = {"flow_rate": "flow"}
 """Other spellings accepted for attribute names."""
 
-INSTANTANEOUS = ("fan", "flow", "speed")
+INSTANTANEOUS = ("fan", "flow", "speed", *ROLE_SPEEDS)
 """Attributes that take effect at once, written per extrusion segment."""
 
 
@@ -178,7 +189,8 @@ def limits(settings) -> dict[str, tuple[float, float]]:
     ``max_nozzle_temperature``; flow within ``min_flow_percent`` .. ``max_flow_percent``
     and no more than ``max_cross_section_mm2`` allows for the bead; fan 0-100; speed from
     1% to the share that brings the fastest feature to ``travel_speed``; infill density
-    0-100; fuzzy skin thickness 0 to the bead width, point distance 0.1-100 mm."""
+    0-100; fuzzy skin thickness 0 to the bead width, point distance 0.1-100 mm; the
+    speeds of :data:`ROLE_SPEEDS` 1 mm/s to ``travel_speed``."""
     fastest = max(settings.print_speed, settings.outer_wall_speed, settings.infill_speed, settings.first_layer_speed)
     return {
         "temperature": (settings.min_extrude_temperature, settings.max_nozzle_temperature),
@@ -189,6 +201,7 @@ def limits(settings) -> dict[str, tuple[float, float]]:
         "infill_density": (0.0, 100.0),
         "fuzzy_skin_thickness": (0.0, settings.bead_width),
         "fuzzy_skin_point_distance": (0.1, 100.0),
+        **dict.fromkeys(ROLE_SPEEDS, (1.0, settings.travel_speed)),
     }
 
 
@@ -214,6 +227,8 @@ def drives(name: str, settings) -> str | None:
         if settings.strategy == 2:
             return "nothing with strategy 2 (every face is filled densely); use strategy 1"
         return "the sparse infill's density (strategy 1)"
+    if name in ROLE_SPEEDS:
+        return f"the feed rate per segment of {' and '.join(ROLE_SPEEDS[name]).lower()} paths (F)"
     if name == "fuzzy_skin_thickness":
         return "fuzzy skin on outer walls: each point moved across the wall by up to this"
     if name == "fuzzy_skin_point_distance":

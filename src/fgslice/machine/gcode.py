@@ -52,6 +52,7 @@ import numpy as np
 
 import fgslice
 from fgslice.errors import SettingsError
+from fgslice.design.attributes import ROLE_SPEEDS
 from fgslice.design.base import Material
 from fgslice.machine.dialects import PLACEHOLDER, Dialect, PaletteLike
 from fgslice.machine.grading import GRADING_SETTINGS, UNGRADED
@@ -293,6 +294,18 @@ class LayerGrade:
     feeds: np.ndarray
 
 
+def _graded_feeds(grade: LayerGrade, move_path: np.ndarray, values: dict[str, np.ndarray]) -> np.ndarray:
+    """Feed rate (mm/s) of each piece: its path's feature speed times ``speed`` (percent),
+    or the feature speed attribute of its path's role where that is defined."""
+    feed = grade.feeds[move_path] * (values["speed"] / 100.0 if "speed" in values else 1.0)
+    roles = grade.roles[move_path]
+    for name, role_names in ROLE_SPEEDS.items():
+        if name in values:
+            own = np.isin(roles, [ROLE_CODE[Role(r)] for r in role_names]) & np.isfinite(values[name])
+            feed = np.where(own, values[name], feed)
+    return feed
+
+
 def role_speeds(settings: Settings, first_layer: bool) -> np.ndarray:
     """Print speed (mm/s) of each role (:data:`ROLES`) on the first or any other layer."""
     s = settings
@@ -378,9 +391,10 @@ def format_packed(
         text, offsets = format_moves(ends[:, 0], ends[:, 1], e)
     else:
         fields = [("G1 X", ends[:, 0], XY_DECIMALS), (" Y", ends[:, 1], XY_DECIMALS), (" E", e, E_DECIMALS)]
-        if "speed" in values:
-            fields.append((" F", np.round(grade.feeds[move_path] * values["speed"] * 0.6, 1), 1))
-            paced = np.bincount(move_path, weights=lengths * 100.0 / values["speed"], minlength=n)
+        if "speed" in values or not ROLE_SPEEDS.keys().isdisjoint(values):
+            feed = _graded_feeds(grade, move_path, values)
+            fields.append((" F", np.round(feed * 60.0, 1), 1))
+            paced = np.bincount(move_path, weights=lengths * grade.feeds[move_path] / feed, minlength=n)
         blocks, line_lengths = _line_blocks(fields, "\n")
         if "fan" in values:
             pwm = np.rint(values["fan"] * 2.55).astype(np.int64)
@@ -620,9 +634,11 @@ class GcodeWriter:
     # -- header ---------------------------------------------------------------------
     def recorded_settings(self) -> dict[str, object]:
         """The settings the file records (header and settings block), by name: all of them
-        but the attribute-grading ones when the design grades no instantaneous attribute."""
+        but the attribute-grading ones when the design grades no instantaneous attribute,
+        and ``filament_colors`` when it is empty."""
         unused = (() if self.grading is not None else GRADING_SETTINGS) + (
-            () if isinstance(self.palette, StatePalette) else STATE_SETTINGS)
+            () if isinstance(self.palette, StatePalette) else STATE_SETTINGS) + (
+            () if self.settings.filament_colors else ("filament_colors",))
         return {k: v for k, v in self.settings.as_dict().items() if k not in unused}
 
     def write_header(self) -> None:

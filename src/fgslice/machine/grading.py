@@ -1,4 +1,4 @@
-"""Instantaneous process attributes (fan, flow, speed) along extrusion moves.
+"""Instantaneous process attributes (fan, flow, speed, feature speeds) along extrusion moves.
 
 The paper's instantaneous parameters need no palette: the design's attribute fields
 (:mod:`fgslice.design.attributes`) are sampled along every extrusion move of the part
@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fgslice.design.attributes import INSTANTANEOUS, AttributeFields, limits
+from fgslice.design.attributes import INSTANTANEOUS, ROLE_SPEEDS, AttributeFields, limits
 from fgslice.errors import DesignError
 from fgslice.planning.plan import ROLE_CODE
 from fgslice.toolpaths.paths import Role
@@ -70,7 +70,9 @@ class SegmentGrading:
         self.names = tuple(n for n in INSTANTANEOUS if n in fields.names)
         self.offset = tuple(float(v) for v in offset)
         self.tolerance = float(settings.attribute_tolerance)
-        self.defaults = {"fan": float(settings.fan_speed), "flow": 100.0, "speed": 100.0}
+        # a feature speed attribute undefined at a point leaves the feature's own speed (NaN)
+        self.defaults = {"fan": float(settings.fan_speed), "flow": 100.0, "speed": 100.0,
+                         **dict.fromkeys(ROLE_SPEEDS, np.nan)}
         bounds = limits(settings)
         self.limits = {name: bounds[name] for name in self.names}
         self.fan_off_layers = settings.fan_off_layers
@@ -114,7 +116,7 @@ class SegmentGrading:
         change = np.zeros(len(move))
         for name in names:
             v = np.zeros(len(move))
-            v[sampled] = self.values(name, points, z)
+            v[sampled] = np.nan_to_num(self.values(name, points, z), nan=0.0)  # undefined: a change too
             change = np.maximum(change, np.abs(np.diff(v, append=0.0)))
         # interval j runs from sample j to j + 1 of the same move
         interval = np.flatnonzero(k < steps[move])
