@@ -316,6 +316,8 @@ root = bar
     report = format_report(check_design(design, settings=load_settings("marlin-mixing", {
         "filament_colors": "#ff0000,#0000ff"})))
     assert "color_rgb.r" in report and "-> drives the mixture of the filaments #ff0000,#0000ff" in report
+    # the filaments are named by the library colours nearest them, which previews know
+    assert report.startswith("materials:\n  red ") and report.count(" alpha ") == 2
 
 
 def test_a_colour_without_filament_colours_drives_nothing_and_says_how_to(tmp_path):

@@ -132,10 +132,12 @@ def _write_report(path: Path, result, settings, design) -> None:
     """The HTML report of a finished slice, with its simulated fidelity."""
     from fgslice.analysis.fidelity import fidelity, simulation_stats
     from fgslice.analysis.simulate import simulate
+    from fgslice.design.color_mix import mix_colors
     from fgslice.machine.state_dialect import dialect_for
     from fgslice.preview.report import write_report
     from fgslice.slicing.states import make_palette
 
+    design = mix_colors(design, settings)
     palette = make_palette(len(design.materials), settings.colors, settings.palette, result.stats.get("temperature_levels"))
     simulated = simulate(result.output, design, None, settings)
     write_report(

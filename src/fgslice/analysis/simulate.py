@@ -655,6 +655,9 @@ def simulate(
     from fgslice.slicing.plan_layers import place_design
     from fgslice.slicing.states import header_palette, material_palette
 
+    from fgslice.design.color_mix import mix_colors
+
+    design = mix_colors(design, settings)  # a colour attribute printed as filament mixtures
     header = GcodeHeader() if isinstance(gcode, GcodeProgram) else _header_of(gcode)
     if settings.dialect == "temperature" and len(design.materials) != 2:
         raise SettingsError(

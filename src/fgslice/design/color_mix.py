@@ -11,7 +11,8 @@ closest to the design's, chosen among the mixtures on a grid of the fraction sim
 (steps of 1/400 for two filaments, coarser for more, about 2000 candidates at most).
 
 :func:`mix_colors` rebuilds a design so: its root wrapped in a :class:`ColorMix` whose
-materials are the filaments (``filament1`` ...). It does so only when the design has a
+materials are the filaments (each named by the library material nearest its colour:
+:func:`filament_names`). It does so only when the design has a
 colour attribute, no materials of its own (its volume fractions decide otherwise) and
 the settings name filament colours.
 """
@@ -27,7 +28,6 @@ import numpy as np
 
 from fgslice.colors import srgb_to_linear
 from fgslice.design import nodes
-from fgslice.design.base import Material
 from fgslice.errors import SettingsError
 
 COLOR_ATTRIBUTES = ("color_rgb", "color_rgba")
@@ -95,15 +95,15 @@ def unmix(rgb: np.ndarray, filaments: tuple[tuple[float, float, float], ...]) ->
 
 class ColorMix(nodes.Fgrade):
     """The child's colour attribute (``channels``, linear RGB) printed as the mixture of
-    ``filaments`` (named materials with their sRGB colours) nearest to it; the first
-    filament where no colour attribute covers a point."""
+    the filaments of sRGB colours ``filaments`` (the materials ``names``) nearest to it;
+    the first filament where no colour attribute covers a point."""
 
     kind = "color_mix"
 
-    def __init__(self, channels, filaments: list[Material], child: nodes.Node) -> None:
-        super().__init__([], [m.name for m in filaments], (child,))
+    def __init__(self, channels, names: list[str], filaments, child: nodes.Node) -> None:
+        super().__init__([], names, (child,))
         self.channels = tuple(channels)
-        self.filament_rgb = tuple(tuple(float(v) for v in m.rgba[:3]) for m in filaments)
+        self.filament_rgb = tuple(tuple(float(v) for v in rgb) for rgb in filaments)
 
     @functools.cached_property
     def _fields(self):
@@ -128,7 +128,6 @@ def mix_colors(design, settings):
     """``design`` with its colour attribute printed as filament mixtures (see the module
     notes), or ``design`` itself when that does not apply."""
     from fgslice.design.attributes import attribute_fields
-    from fgslice.design.materials import MaterialLibrary
 
     root = getattr(design, "root", None)
     fields = attribute_fields(design)
@@ -138,10 +137,29 @@ def mix_colors(design, settings):
     channels = color_channels(fields.names)
     if channels is None:
         return design
-    filaments = [Material(f"filament{i + 1}", (*rgb, 1.0)) for i, rgb in enumerate(parse_filament_colors(text))]
-    library = design.library.extended(MaterialLibrary(filaments))
-    return nodes.NodeDesign(ColorMix(channels, filaments, root), library, hint_bounds=design.hint_bounds,
+    filaments = parse_filament_colors(text)
+    names = filament_names(filaments, design.library)
+    return nodes.NodeDesign(ColorMix(channels, names, filaments, root), design.library, hint_bounds=design.hint_bounds,
                             voxel_size=design.voxel_size, section_spacing=design.section_spacing, source=design.source)
+
+
+def filament_names(filaments, library) -> list[str]:
+    """A material of ``library`` standing for each filament colour (sRGB triples): the
+    nearest (CIEDE2000) not taken by an earlier filament (``void`` excluded). The G-code
+    names them in its header, so that previews and simulations find them."""
+    candidates = [library.get(n) for n in library.names if n.lower() != nodes.VOID]
+    import colour
+
+    lab = _lab(srgb_to_linear(np.array([m.rgba[:3] for m in candidates], dtype=float)))
+    names: list[str] = []
+    for rgb in filaments:
+        target = _lab(srgb_to_linear(np.asarray(rgb, dtype=float)))
+        distance = np.asarray(colour.delta_E(lab, np.broadcast_to(target, lab.shape), method="CIE 2000"))
+        for i in np.argsort(distance, kind="stable"):
+            if candidates[i].name not in names:
+                names.append(candidates[i].name)
+                break
+    return names
 
 
 def colors_drive_mixture(design) -> bool:
