@@ -64,6 +64,7 @@ from fgslice.slicing.regions import polygonal_each, slice_layer
 from fgslice.slicing.states import StatePalette, field_for, make_palette, material_palette, state_levels
 from fgslice.toolpaths import strategy1, strategy2
 from fgslice.toolpaths.paths import Path, Role
+from fgslice.toolpaths.brim import brim_area, brim_paths
 from fgslice.toolpaths.skirt import skirt_paths
 from fgslice.toolpaths.walls import simplify_outline
 
@@ -201,7 +202,7 @@ def _layer_result(job: SliceJob, index: int) -> LayerResult:
         field_ = field_for(job.design, job.placement, job.palette, s)
         paths, short = strategy1.layer_paths(regions, below, above, field_, job.palette, s)
     if index == 0:
-        paths.paths = skirt_paths(regions.outline, s) + paths.paths
+        paths.paths = skirt_paths(brim_area(regions.outline, s), s) + brim_paths(regions.outline, s) + paths.paths
     colors = len({p.color for p in paths.paths if p.color >= 0})
     plan = order_layer(paths, job.palette.order_for_layer(i), job.start_xy, s.feature_order)
     prepare_bodies(plan, s, job.grading)
@@ -218,6 +219,7 @@ def _part_footprint(job: SliceJob) -> shapely.Geometry:
     ox, oy, _ = job.placement.offset
     s = job.settings
     grow = s.skirt_distance + s.skirt_loops * s.bead_width if s.skirt_loops else 0.0
+    grow += s.brim_width + s.bead_width if s.brim_width > 0 else 0.0
     return shapely.box(x0 + ox, y0 + oy, x1 + ox, y1 + oy).buffer(grow, join_style="mitre")
 
 

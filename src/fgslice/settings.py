@@ -82,6 +82,7 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     position_y: Annotated[float, Meta(ge=-5000, le=5000, description="part center Y when center = false, mm")] = 0.0
     skirt_loops: Annotated[int, Meta(ge=0, le=20, description="loops around the part on the first layer")] = 1
     skirt_distance: Annotated[float, Meta(ge=0, le=100, description="gap between skirt and part, mm")] = 3.0
+    brim_width: Annotated[float, Meta(ge=0, le=100, description="loops of a brim around the part on the first layer cover this width, mm; 0: no brim")] = 0.0
 
     # -- purge and dead volume -------------------------------------------------------
     purge: Annotated[bool, Meta(description="strategy 1 purge tower on state changes")] = True
