@@ -65,6 +65,7 @@ from fgslice.slicing.states import StatePalette, field_for, make_palette, materi
 from fgslice.toolpaths import strategy1, strategy2
 from fgslice.toolpaths.paths import Path, Role
 from fgslice.toolpaths.brim import brim_area, brim_paths
+from fgslice.toolpaths.seams import place_seams
 from fgslice.toolpaths.skirt import skirt_paths
 from fgslice.toolpaths.walls import simplify_outline
 
@@ -185,7 +186,8 @@ def _layer_result(job: SliceJob, index: int) -> LayerResult:
     """:func:`_layer_task`'s work."""
     s = job.settings
     i, z_top, height = job.layers[index]
-    repeats = job.repeats if s.strategy == 2 and index > 0 else None  # the first layer holds the skirt
+    # the first layer holds the skirt; random seams differ from layer to layer
+    repeats = job.repeats if s.strategy == 2 and index > 0 and s.seam_position != "random" else None
     if s.strategy == 2:
         regions = slice_layer(job.design, job.placement, job.palette, i, z_top, height, s)
         repeated = repeats.find(regions) if repeats is not None else None
@@ -204,7 +206,9 @@ def _layer_result(job: SliceJob, index: int) -> LayerResult:
     if index == 0:
         paths.paths = skirt_paths(brim_area(regions.outline, s), s) + brim_paths(regions.outline, s) + paths.paths
     colors = len({p.color for p in paths.paths if p.color >= 0})
-    plan = order_layer(paths, job.palette.order_for_layer(i), job.start_xy, s.feature_order)
+    paths.paths = place_seams(paths.paths, s.seam_position, i)
+    plan = order_layer(paths, job.palette.order_for_layer(i), job.start_xy, s.feature_order,
+                       fixed_seams=s.seam_position != "nearest")
     prepare_bodies(plan, s, job.grading)
     result = LayerResult(plan=plan, short_pieces=short, uncovered_mm2=paths.uncovered_mm2, colors=colors,
                          reassigned_mm2=paths.reassigned_mm2, commanded=paths.commanded)
