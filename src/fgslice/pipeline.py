@@ -67,6 +67,8 @@ from fgslice.toolpaths.paths import Path, Role
 from fgslice.toolpaths.brim import brim_area, brim_paths
 from fgslice.toolpaths.seams import place_seams
 from fgslice.toolpaths.skirt import skirt_paths
+from fgslice.toolpaths.supports import (SupportLayer, check_support_state, plan_supports, support_paths,
+                                        support_volume)
 from fgslice.toolpaths.walls import simplify_outline
 
 
@@ -99,6 +101,7 @@ class SliceJob:
     outlines: list[shapely.Geometry] = field(default_factory=list)
     repeats: RepeatedLayers = field(default_factory=RepeatedLayers)
     grading: SegmentGrading | None = None
+    supports: list[SupportLayer] = field(default_factory=list)
 
 
 @dataclass
@@ -120,6 +123,7 @@ class LayerResult:
     colors: int
     reassigned_mm2: float = 0.0
     commanded: dict[str, tuple[float, float]] = field(default_factory=dict)
+    support_mm3: float = 0.0
 
 
 @dataclass
@@ -186,8 +190,8 @@ def _layer_result(job: SliceJob, index: int) -> LayerResult:
     """:func:`_layer_task`'s work."""
     s = job.settings
     i, z_top, height = job.layers[index]
-    # the first layer holds the skirt; random seams differ from layer to layer
-    repeats = job.repeats if s.strategy == 2 and index > 0 and s.seam_position != "random" else None
+    # the first layer holds the skirt; random seams and supports differ from layer to layer
+    repeats = job.repeats if s.strategy == 2 and index > 0 and s.seam_position != "random" and not s.support else None
     if s.strategy == 2:
         regions = slice_layer(job.design, job.placement, job.palette, i, z_top, height, s)
         repeated = repeats.find(regions) if repeats is not None else None
@@ -203,15 +207,21 @@ def _layer_result(job: SliceJob, index: int) -> LayerResult:
         above = job.outlines[index + 1 : index + 1 + s.top_layers]
         field_ = field_for(job.design, job.placement, job.palette, s)
         paths, short = strategy1.layer_paths(regions, below, above, field_, job.palette, s)
+    support = support_paths(job.supports[index], s) if job.supports else []
+    paths.paths += support
     if index == 0:
-        paths.paths = skirt_paths(brim_area(regions.outline, s), s) + brim_paths(regions.outline, s) + paths.paths
+        first = brim_area(regions.outline, s)
+        if support:
+            first = shapely.union_all([first, job.supports[0].body, job.supports[0].interface])
+        paths.paths = skirt_paths(first, s) + brim_paths(regions.outline, s) + paths.paths
     colors = len({p.color for p in paths.paths if p.color >= 0})
     paths.paths = place_seams(paths.paths, s.seam_position, i)
     plan = order_layer(paths, job.palette.order_for_layer(i), job.start_xy, s.feature_order,
                        fixed_seams=s.seam_position != "nearest")
     prepare_bodies(plan, s, job.grading)
     result = LayerResult(plan=plan, short_pieces=short, uncovered_mm2=paths.uncovered_mm2, colors=colors,
-                         reassigned_mm2=paths.reassigned_mm2, commanded=paths.commanded)
+                         reassigned_mm2=paths.reassigned_mm2, commanded=paths.commanded,
+                         support_mm3=support_volume(support))
     if repeats is not None:
         repeats.keep(regions, plan, result)
     return result
@@ -335,6 +345,7 @@ def slice_to_gcode(
     levels = state_levels(attributes.ranges, attributes.cover, settings) if attributes is not None else None
     palette = make_palette(len(design.materials), settings.colors, settings.palette, levels)
     dialect = dialect_for(settings, palette)
+    check_support_state(settings, palette.size)
     placement = place_design(design, settings)
     layers = layer_heights(design, settings)
     check_resources(design, settings, len(layers))
@@ -350,10 +361,12 @@ def slice_to_gcode(
     with contextlib.ExitStack() as cleanup:
         tower = None
         sizer = PurgeSizer.for_palette(settings, palette)
-        if settings.strategy == 1:
+        if settings.strategy == 1 or settings.support:
             batches = [range(i, min(i + SECTION_BATCH, len(layers))) for i in range(0, len(layers), SECTION_BATCH)]
             job.outlines = list(itertools.chain.from_iterable(
                 map_ordered(_section_task, job, batches, jobs=jobs, scheduler=scheduler, probe=True)))
+        if settings.support:
+            job.supports = plan_supports(job.outlines, settings)
         if callable(thumbnails):
             render = _thumbnail_render(job, thumbnails)
             thumbnails = _start_thumbnails(render, cleanup) if jobs > 1 or scheduler else tuple(render())
@@ -365,6 +378,7 @@ def slice_to_gcode(
 
         short_records: list[strategy1.ShortPieces] = []
         uncovered = [0.0]
+        supported = [0.0]  # support volume, mm^3
         reassigned = []  # (layer, mm^2) of the layers that gave slivers away
         commanded: dict[str, list[float]] = {}  # the toolpaths' attribute ranges
         total = len(layers)
@@ -374,6 +388,7 @@ def slice_to_gcode(
                 if result.short_pieces:
                     short_records.append(result.short_pieces)
                 uncovered[0] += result.uncovered_mm2
+                supported[0] += result.support_mm3
                 if result.reassigned_mm2 > 0:
                     reassigned.append((done - 1, result.reassigned_mm2))
                 for name, (low, high) in result.commanded.items():
@@ -458,6 +473,7 @@ def slice_to_gcode(
             "colors": palette.size,
             "strategy": settings.strategy,
             "uncovered_mm2": round(uncovered[0], 3),
+            "support_mm3": round(supported[0], 3),
             "reassigned_mm2": round(sum(area for _, area in reassigned), 3),
             "purge_mm3": round(purge_stats.purge_mm3, 3) if tower else 0.0,
             "purge_g": round(purge_stats.purge_g, 4) if tower else 0.0,

@@ -85,6 +85,19 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     skirt_distance: Annotated[float, Meta(ge=0, le=100, description="gap between skirt and part, mm")] = 3.0
     brim_width: Annotated[float, Meta(ge=0, le=100, description="loops of a brim around the part on the first layer cover this width, mm; 0: no brim")] = 0.0
 
+    # -- support material ------------------------------------------------------------
+    support: Annotated[bool, Meta(description="print support under overhangs")] = False
+    support_angle: Annotated[float, Meta(ge=0, le=89, description="overhangs leaning further than this from the vertical get support, degrees")] = 45.0
+    support_to: Annotated[Literal["bed", "part"], Meta(description="support stands on the bed only (columns meeting the part are dropped) or also on the part")] = "bed"
+    support_xy_gap: Annotated[float, Meta(ge=0, le=10, description="gap between the part and the edge of a support bead, mm")] = 0.3
+    support_top_z_gap: Annotated[float, Meta(ge=0, le=10, description="gap between the top of the support and the surface it holds, mm (whole layers)")] = 0.2
+    support_bottom_z_gap: Annotated[float, Meta(ge=0, le=10, description="gap between the part and support standing on it, mm (whole layers)")] = 0.2
+    support_interface_layers: Annotated[int, Meta(ge=0, le=50, description="dense layers at the top of the support")] = 2
+    support_pattern: Annotated[Literal["rectilinear", "grid"], Meta(description="support lines along X (rectilinear) or along X and Y (grid)")] = "rectilinear"
+    support_spacing: Annotated[float, Meta(gt=0, le=50, description="distance between support lines, mm")] = 2.0
+    support_interface_spacing: Annotated[float, Meta(gt=0, le=50, description="distance between support interface lines, mm")] = 0.6
+    support_state: Annotated[int | Literal["current"], Meta(description="palette color support is printed in, or 'current': whatever state the nozzle is in (no state change, no purge)")] = "current"
+
     # -- purge and dead volume -------------------------------------------------------
     purge: Annotated[bool, Meta(description="strategy 1 purge tower on state changes")] = True
     melt_volume_mm3: Annotated[float, Meta(ge=0, le=10000, description="melt chamber volume V_melt, mm^3")] = 68.5
