@@ -16,8 +16,6 @@ from fgslice.settings import Settings, load_settings
 from fgslice.toolpaths.paths import Role
 from fgslice.toolpaths.supports import plan_supports, support_paths
 
-BENCHY = Path(__file__).resolve().parents[1] / "examples" / "benchy.vcad"
-BENCHY_STL = Path(__file__).resolve().parents[2] / "shared" / "data" / "meshes" / "3DBenchy.stl"
 GRADE = '["x/30+0.5", "0.5-x/30"], ["blue", "yellow"]'
 PARTS = {
     "arch": "translate(0,0,5) { difference() { rectprism(20, 6, 10); "
@@ -107,11 +105,12 @@ def test_strategy_2_supports_a_t(tmp_path):
     assert on < 0.005 < off
 
 
-@pytest.mark.skipif(not BENCHY_STL.exists(), reason="3DBenchy mesh not present")
-def test_benchy_supports(tmp_path):
-    off, _, _ = _share(tmp_path, BENCHY, "benchy", colors=1)
-    on, stats, _ = _share(tmp_path, BENCHY, "benchy", colors=1, support="true", support_to="part")
-    assert on < 0.005 < off
+def test_benchy_supports(tmp_path, benchy_path):
+    design = tmp_path / "benchy.vcad"
+    design.write_text(f'mesh("{benchy_path}");')
+    off, _, _ = _share(tmp_path, design, "benchy", colors=1)
+    on, stats, _ = _share(tmp_path, design, "benchy", colors=1, support="true", support_to="part")
+    assert on < 0.005 and off > 2 * on
     assert stats["support_mm3"] > 0
 
 

@@ -47,6 +47,7 @@ from fgslice.machine.gcode import GcodeWriter, build_number_tables, prepare_bodi
 from fgslice.machine.grading import SegmentGrading, checked_attributes
 from fgslice.machine.verify import FOLLOW_BLOCK_BYTES, follow_file, format_faults, verify_gcode, verify_gcode_blocks
 from fgslice.output import atomic_output
+from fgslice.planning.coasting import coasted_lengths
 from fgslice.planning.lookahead import apply_lookahead, apply_time_lead
 from fgslice.planning.order import order_layer
 from fgslice.planning.plan import LayerPlan
@@ -406,7 +407,8 @@ def slice_to_gcode(
         elif settings.dialect == "temperature" and settings.temperature_lead_s > 0:
             stream = apply_time_lead(stream, settings.temperature_lead_s, _speed_of(settings))
         elif settings.lookahead_distance > 0:
-            stream = apply_lookahead(stream, settings.lookahead_distance)
+            stream = apply_lookahead(stream, settings.lookahead_distance,
+                                     functools.partial(coasted_lengths, settings=settings) if settings.coast_mm else None)
 
         header = {
             "placement_offset": ",".join(f"{v:.4f}" for v in placement.offset),

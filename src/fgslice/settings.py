@@ -90,6 +90,7 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     support_angle: Annotated[float, Meta(ge=0, le=89, description="overhangs leaning further than this from the vertical get support, degrees")] = 45.0
     support_to: Annotated[Literal["bed", "part"], Meta(description="support stands on the bed only (columns meeting the part are dropped) or also on the part")] = "bed"
     support_xy_gap: Annotated[float, Meta(ge=0, le=10, description="gap between the part and the edge of a support bead, mm")] = 0.3
+    support_expansion: Annotated[float, Meta(ge=0, le=50, description="support reaches this far beyond the overhang it holds, for a wider footing, mm")] = 2.0
     support_top_z_gap: Annotated[float, Meta(ge=0, le=10, description="gap between the top of the support and the surface it holds, mm (whole layers)")] = 0.2
     support_bottom_z_gap: Annotated[float, Meta(ge=0, le=10, description="gap between the part and support standing on it, mm (whole layers)")] = 0.2
     support_interface_layers: Annotated[int, Meta(ge=0, le=50, description="dense layers at the top of the support")] = 2
@@ -123,6 +124,8 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     retract_length: Annotated[float, Meta(ge=0, le=50, description="retraction length, mm of filament")] = 0.8
     retract_speed: Annotated[float, Meta(gt=0, le=500, description="retraction speed, mm/s")] = 35.0
     retract_min_travel: Annotated[float, Meta(ge=0, le=1000, description="retract only on travels longer than this, mm")] = 1.0
+    coast_mm: Annotated[float, Meta(ge=0, le=20, description="before a retraction, move the path's last this many mm without extruding (coasting), mm")] = 0.0
+    wipe_mm: Annotated[float, Meta(ge=0, le=20, description="on a retraction, move back along the last path this far while retracting, mm")] = 0.0
     z_hop: Annotated[float, Meta(ge=0, le=10, description="lift on retracted travels, mm")] = 0.0
 
     # -- temperatures and cooling ----------------------------------------------------

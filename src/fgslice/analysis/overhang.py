@@ -4,13 +4,15 @@ Read from any slicer's G-code (:func:`~fgslice.machine.gcode_reader.read_gcode`)
 point of an extruding move on layer ``k >= 1`` is *over nothing* when no material lies
 within half a bead of it below, the material below being
 
-* every extrusion of layer ``k - 1`` (part, support, tower, skirt), each bead its
-  centerline grown by ``w / 2``, closed by ``close_mm`` (sparse infill's gaps and the
-  gaps between support lines count as material: the beads above bridge them as they are
-  meant to), and
-* the support (``;TYPE:Support material`` and ``Support material interface``) of the
-  ``gap_layers`` layers below that, because the surface a support holds is printed
-  ``support_top_z_gap`` above the support's top by design.
+* every extrusion of the layers whose top lies at or above the bottom of layer ``k``
+  (its top ``;Z:`` minus the nominal ``layer_height``): layer ``k - 1``, and the support
+  layers PrusaSlicer prints at heights of their own in between (part, support, tower,
+  skirt), each bead its centerline grown by ``w / 2``, closed by ``close_mm`` (sparse
+  infill's gaps and the gaps between support lines count as material: the beads above
+  bridge them as they are meant to), and
+* the support (``;TYPE:Support material`` and ``Support material interface``) whose
+  layer top lies within ``gap_mm`` below that, because the surface a support holds is
+  printed the top z gap above the support's top by design.
 
 Layer 0 lies on the bed. The share is the extruded volume (E) of the moves' points over
 nothing divided by all extruded volume. The layers are rasterized on a grid of ``cell``
@@ -40,9 +42,9 @@ def _samples(start: np.ndarray, end: np.ndarray, step: float) -> tuple[np.ndarra
     return start[owner] + t[:, None] * (end - start)[owner], owner
 
 
-def unsupported_share(program, bead_width: float, gap_layers: int = 1, close_mm: float = 1.5,
-                      cell: float = 0.1) -> float:
-    """Share (0-1) of the extruded volume laid over nothing (see the module)."""
+def unsupported_share(program, bead_width: float, layer_height: float = 0.2, gap_mm: float = 0.2,
+                      close_mm: float = 1.5, cell: float = 0.1) -> float:
+    """Share (0-1) of the extruded volume laid over nothing (see the module); mm."""
     printing = np.flatnonzero((program.e > 0) & (program.length > 0) & (program.layer >= 0))
     if not len(printing):
         return 0.0
@@ -61,14 +63,19 @@ def unsupported_share(program, bead_width: float, gap_layers: int = 1, close_mm:
     judged_bounds = np.searchsorted(layer[judged_owner], np.arange(int(layer.max()) + 2))
     over_nothing = 0.0
     reach = bead_width + cell  # centerlines this close: the beads overlap by half a bead at least
+    tops = np.asarray(program.layer_z, dtype=float)
+    eps = 1e-3
     for k in range(1, int(layer.max()) + 1):
         mine = slice(judged_bounds[k], judged_bounds[k + 1])
         if mine.start == mine.stop:
             continue
         here, here_weight = judged[mine], weight[mine]
-        lo = bounds[max(0, k - 1 - gap_layers)]
+        bottom = tops[k] - layer_height
+        first_all = min(int(np.searchsorted(tops, bottom - eps)), k - 1)
+        first_support = min(int(np.searchsorted(tops, bottom - gap_mm - eps)), first_all)
+        lo = bounds[first_support]
         below = points[lo : bounds[k]]
-        below = below[(point_layer[lo : bounds[k]] == k - 1) | point_support[lo : bounds[k]]]
+        below = below[(point_layer[lo : bounds[k]] >= first_all) | point_support[lo : bounds[k]]]
         if not len(below):
             over_nothing += float(here_weight.sum())
             continue

@@ -10,7 +10,9 @@ Regions (:func:`plan_supports`, for the whole print, top layer down; bed frame, 
    exactly at the angle are dropped, pieces under ``w^2`` dropped; the enforcers of the design
    (where its ``support`` material wins) are added. Each overhang is smoothed by a
    closing of :data:`CLOSING_MM` (bits a few mm apart become one area, as PrusaSlicer's
-   closing radius) and grown by ``w / 2`` (the beads along its edge lie on support).
+   closing radius) and grown by ``w / 2 + support_expansion`` (the beads along its edge
+   lie on support, and the support's footing is wider than the overhang, as PrusaSlicer's
+   support, whose areas it snaps outward to its line grid).
 2. **Projection.** The support of layer ``j`` is that of layer ``j + 1`` plus the
    overhangs of layer ``j + 1 + top`` (``top`` = ``support_top_z_gap`` in whole layers: the
    support's top stays that far below the surface it holds), minus the part grown by
@@ -96,7 +98,7 @@ def overhangs(outlines: list[shapely.Geometry], settings: Settings) -> np.ndarra
         merged[k] = shapely.union_all(parts[big & (owner == k)])
     smooth = shapely.buffer(shapely.buffer(merged, CLOSING_MM, join_style="mitre", mitre_limit=3.0), -CLOSING_MM,
                             join_style="mitre", mitre_limit=3.0)
-    grown = shapely.buffer(smooth, w / 2, join_style="mitre", mitre_limit=3.0)
+    grown = shapely.buffer(smooth, w / 2 + settings.support_expansion, join_style="mitre", mitre_limit=3.0)
     out[1:] = np.where(shapely.is_empty(merged), merged, grown)
     return out
 
