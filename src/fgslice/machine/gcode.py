@@ -301,6 +301,7 @@ def role_speeds(settings: Settings, first_layer: bool) -> np.ndarray:
     if not first_layer:
         by_role[ROLE_CODE[Role.EXTERNAL_PERIMETER]] = s.outer_wall_speed
         by_role[ROLE_CODE[Role.INTERNAL_INFILL]] = s.infill_speed
+        by_role[ROLE_CODE[Role.BRIDGE_INFILL]] = s.bridge_speed
     return by_role
 
 
