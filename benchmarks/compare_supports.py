@@ -85,6 +85,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--jobs", type=int, default=2, help="fgslice worker processes")
     parser.add_argument("--parts", default=",".join([*PARTS, "benchy"]), help="comma-separated part names")
+    parser.add_argument("--benchy", type=Path, default=BENCHY_STL, help="the 3DBenchy STL")
     args = parser.parse_args()
     prusa = shutil.which("prusa-slicer")
     settings = load_settings(None, SETTINGS)
@@ -93,11 +94,11 @@ def main() -> None:
         work = Path(tmp)
         for name in args.parts.split(","):
             if name == "benchy":
-                if not BENCHY_STL.exists():
-                    print(f"{name:<14} skipped: {BENCHY_STL} not found")
+                if not args.benchy.exists():
+                    print(f"{name:<14} skipped: {args.benchy} not found")
                     continue
-                design = parse_design(f'mesh("{BENCHY_STL}");')
-                stl = BENCHY_STL
+                design = parse_design(f'mesh("{args.benchy}");')
+                stl = args.benchy
             else:
                 design = parse_design(f"fgrade({GRADE}) {{ {PARTS[name]} }}")
                 stl = work / f"{name.replace(' ', '_')}.stl"

@@ -35,7 +35,7 @@ def _t_outlines(stem_layers=10, bar_layers=4):
 
 
 def test_t_gets_support_under_its_arms_with_gaps_and_interface():
-    settings = Settings(support=True)
+    settings = Settings(support=True, support_expansion=0)
     layers = plan_supports(_t_outlines(), settings)
     w = settings.bead_width
     regions = [shapely.union(layer.body, layer.interface) for layer in layers]
@@ -47,6 +47,8 @@ def test_t_gets_support_under_its_arms_with_gaps_and_interface():
         assert shapely.distance(r, stem) >= settings.support_xy_gap + w / 2 - 1e-6
         assert r.area > 0.8 * 2 * 8 * 6 * (1 - 0.2)  # most of the two arms' shadow
     assert [not layer.interface.is_empty for layer in layers[:9]] == [False] * 7 + [True] * 2
+    wider = plan_supports(_t_outlines(), Settings(support=True, support_expansion=2.0))
+    assert wider[3].body.area > layers[3].body.area + 2 * 2 * 6  # grown 2 mm around the arms' shadow
     lines = support_paths(layers[3], settings)
     assert lines and all(p.role is Role.SUPPORT and p.color == -1 for p in lines)
     directions = np.concatenate([np.diff(p.points, axis=0) for p in lines])
@@ -58,8 +60,8 @@ def test_support_to_bed_drops_columns_that_stand_on_the_part():
     # a shelf (layers 6-7) over a low block (layers 0-2) that is wider than the shelf's stem
     stem, block, shelf = shapely.box(-2, -3, 2, 3), shapely.box(-8, -3, 2, 3), shapely.box(-8, -3, 8, 3)
     outlines = [block] * 3 + [stem] * 3 + [shelf] * 2
-    bed = plan_supports(outlines, Settings(support=True, support_to="bed"))
-    part = plan_supports(outlines, Settings(support=True, support_to="part"))
+    bed = plan_supports(outlines, Settings(support=True, support_to="bed", support_expansion=0))
+    part = plan_supports(outlines, Settings(support=True, support_to="part", support_expansion=0))
     right, left = shapely.box(3, -3, 9, 3), shapely.box(-9, -3, -3, 3)
     support = [shapely.union(layer.body, layer.interface) for layer in bed]
     assert all(s.intersection(right).area > 1 for s in support[:5])
@@ -78,7 +80,8 @@ def test_support_only_under_walls_leaning_further_than_the_angle():
 
 def _share(tmp_path, text, name, strategy=1, **overrides):
     design = load_design(text) if isinstance(text, Path) else parse_design(f"fgrade({GRADE}) {{ {text} }}")
-    values = {"strategy": str(strategy), "colors": "2", **{k: str(v) for k, v in overrides.items()}}
+    # no purge tower: its volume would dilute the share
+    values = {"strategy": str(strategy), "colors": "2", "purge": "false", **{k: str(v) for k, v in overrides.items()}}
     settings = load_settings(None, values)
     out = tmp_path / f"{name.replace(' ', '_')}_{overrides.get('support', False)}.gcode"
     stats = slice_to_gcode(design, settings, out, jobs=1).stats

@@ -12,7 +12,8 @@ within half a bead of it below, the material below being
   bridge them as they are meant to), and
 * the support (``;TYPE:Support material`` and ``Support material interface``) whose
   layer top lies within ``gap_mm`` below that, because the surface a support holds is
-  printed the top z gap above the support's top by design.
+  printed the top z gap above the support's top by design; for a support move, every
+  extrusion there (support standing on the part keeps the bottom z gap above it).
 
 Layer 0 lies on the bed. The share is the extruded volume (E) of the moves' points over
 nothing divided by all extruded volume. The layers are rasterized on a grid of ``cell``
@@ -61,6 +62,7 @@ def unsupported_share(program, bead_width: float, layer_height: float = 0.2, gap
     judged, judged_owner = _samples(start, end, 2 * cell)  # the points judged
     weight = (e / np.bincount(judged_owner, minlength=len(e)))[judged_owner]
     judged_bounds = np.searchsorted(layer[judged_owner], np.arange(int(layer.max()) + 2))
+    judged_support = is_support[judged_owner]
     over_nothing = 0.0
     reach = bead_width + cell  # centerlines this close: the beads overlap by half a bead at least
     tops = np.asarray(program.layer_z, dtype=float)
@@ -74,17 +76,23 @@ def unsupported_share(program, bead_width: float, layer_height: float = 0.2, gap
         first_all = min(int(np.searchsorted(tops, bottom - eps)), k - 1)
         first_support = min(int(np.searchsorted(tops, bottom - gap_mm - eps)), first_all)
         lo = bounds[first_support]
-        below = points[lo : bounds[k]]
-        below = below[(point_layer[lo : bounds[k]] >= first_all) | point_support[lo : bounds[k]]]
-        if not len(below):
-            over_nothing += float(here_weight.sum())
-            continue
-        tree = cKDTree(below)
-        near, _ = tree.query(here, distance_upper_bound=reach)
-        doubt = ~np.isfinite(near)
-        if doubt.any():
-            far = _far_after_closing(here[doubt], below, tree, bead_width, close_mm, cell)
-            over_nothing += float(here_weight[doubt][far].sum())
+        candidates = points[lo : bounds[k]]
+        near_layer = point_layer[lo : bounds[k]] >= first_all
+        mine_support = judged_support[mine]
+        for kind, below in ((~mine_support, candidates[near_layer | point_support[lo : bounds[k]]]),
+                            (mine_support, candidates)):
+            if not kind.any():
+                continue
+            pts, wts = here[kind], here_weight[kind]
+            if not len(below):
+                over_nothing += float(wts.sum())
+                continue
+            tree = cKDTree(below)
+            near, _ = tree.query(pts, distance_upper_bound=reach)
+            doubt = ~np.isfinite(near)
+            if doubt.any():
+                far = _far_after_closing(pts[doubt], below, tree, bead_width, close_mm, cell)
+                over_nothing += float(wts[doubt][far].sum())
     return over_nothing / float(e.sum())
 
 
