@@ -46,7 +46,7 @@ def test_t_gets_support_under_its_arms_with_gaps_and_interface():
     for r in regions[:9]:
         assert shapely.distance(r, stem) >= settings.support_xy_gap + w / 2 - 1e-6
         assert r.area > 0.8 * 2 * 8 * 6 * (1 - 0.2)  # most of the two arms' shadow
-    assert [not layer.interface.is_empty for layer in layers[:9]] == [False] * 7 + [True] * 2
+    assert [not layer.interface.is_empty for layer in layers[:9]] == [False] * 6 + [True] * 3
     wider = plan_supports(_t_outlines(), Settings(support=True, support_expansion=2.0))
     assert wider[3].body.area > layers[3].body.area + 2 * 2 * 6  # grown 2 mm around the arms' shadow
     lines = support_paths(layers[3], settings)

@@ -94,7 +94,7 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     support_expansion: Annotated[float, Meta(ge=0, le=50, description="support reaches this far beyond the overhang it holds, for a wider footing, mm")] = 2.0
     support_top_z_gap: Annotated[float, Meta(ge=0, le=10, description="gap between the top of the support and the surface it holds, mm (whole layers)")] = 0.2
     support_bottom_z_gap: Annotated[float, Meta(ge=0, le=10, description="gap between the part and support standing on it, mm (whole layers)")] = 0.2
-    support_interface_layers: Annotated[int, Meta(ge=0, le=50, description="dense layers at the top of the support")] = 2
+    support_interface_layers: Annotated[int, Meta(ge=0, le=50, description="dense layers at the top of the support")] = 3
     support_pattern: Annotated[Literal["rectilinear", "grid"], Meta(description="support lines along X (rectilinear) or along X and Y (grid)")] = "rectilinear"
     support_spacing: Annotated[float, Meta(gt=0, le=50, description="distance between support lines, mm")] = 2.0
     support_interface_spacing: Annotated[float, Meta(gt=0, le=50, description="distance between support interface lines, mm")] = 0.6
