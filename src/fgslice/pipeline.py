@@ -235,6 +235,7 @@ def _part_footprint(job: SliceJob) -> shapely.Geometry:
     s = job.settings
     grow = s.skirt_distance + s.skirt_loops * s.bead_width if s.skirt_loops else 0.0
     grow += s.brim_width + s.bead_width if s.brim_width > 0 else 0.0
+    grow += s.support_expansion + s.bead_width if s.support else 0.0  # support may reach past the part
     return shapely.box(x0 + ox, y0 + oy, x1 + ox, y1 + oy).buffer(grow, join_style="mitre")
 
 

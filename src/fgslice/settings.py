@@ -91,7 +91,7 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     support_angle: Annotated[float, Meta(ge=0, le=89, description="overhangs leaning further than this from the vertical get support, degrees")] = 45.0
     support_to: Annotated[Literal["bed", "part"], Meta(description="support stands on the bed only (columns meeting the part are dropped) or also on the part")] = "bed"
     support_xy_gap: Annotated[float, Meta(ge=0, le=10, description="gap between the part and the edge of a support bead, mm")] = 0.3
-    support_expansion: Annotated[float, Meta(ge=0, le=50, description="support reaches this far beyond the overhang it holds, for a wider footing, mm")] = 2.0
+    support_expansion: Annotated[float, Meta(ge=0, le=50, description="support reaches this far beyond the overhang it holds, for a wider footing, mm")] = 3.0
     support_top_z_gap: Annotated[float, Meta(ge=0, le=10, description="gap between the top of the support and the surface it holds, mm (whole layers)")] = 0.2
     support_bottom_z_gap: Annotated[float, Meta(ge=0, le=10, description="gap between the part and support standing on it, mm (whole layers)")] = 0.2
     support_interface_layers: Annotated[int, Meta(ge=0, le=50, description="dense layers at the top of the support")] = 3
