@@ -48,6 +48,7 @@ from fgslice.machine.gcode import GcodeWriter, build_number_tables, prepare_bodi
 from fgslice.machine.grading import SegmentGrading, checked_attributes
 from fgslice.machine.verify import FOLLOW_BLOCK_BYTES, follow_file, format_faults, verify_gcode, verify_gcode_blocks
 from fgslice.output import atomic_output
+from fgslice.planning.coasting import coasted_lengths
 from fgslice.planning.lookahead import apply_lookahead, apply_time_lead
 from fgslice.planning.order import order_layer
 from fgslice.planning.plan import LayerPlan
@@ -66,7 +67,11 @@ from fgslice.slicing.states import StatePalette, field_for, make_palette, materi
 from fgslice.toolpaths import strategy1, strategy2
 from fgslice.toolpaths.fuzzy_skin import FuzzySkin
 from fgslice.toolpaths.paths import Path, Role
+from fgslice.toolpaths.brim import brim_area, brim_paths
+from fgslice.toolpaths.seams import place_seams
 from fgslice.toolpaths.skirt import skirt_paths
+from fgslice.toolpaths.supports import (SupportLayer, check_support_state, plan_supports, support_paths,
+                                        support_volume)
 from fgslice.toolpaths.walls import simplify_outline
 
 
@@ -101,6 +106,7 @@ class SliceJob:
     repeats: RepeatedLayers = field(default_factory=RepeatedLayers)
     grading: SegmentGrading | None = None
     fuzzy: FuzzySkin | None = None
+    supports: list[SupportLayer] = field(default_factory=list)
 
 
 @dataclass
@@ -122,6 +128,7 @@ class LayerResult:
     colors: int
     reassigned_mm2: float = 0.0
     commanded: dict[str, tuple[float, float]] = field(default_factory=dict)
+    support_mm3: float = 0.0
 
 
 @dataclass
@@ -188,8 +195,9 @@ def _layer_result(job: SliceJob, index: int) -> LayerResult:
     """:func:`_layer_task`'s work."""
     s = job.settings
     i, z_top, height = job.layers[index]
-    # the first layer holds the skirt; a fuzzy skin differs on every layer
-    repeats = job.repeats if s.strategy == 2 and index > 0 and job.fuzzy is None else None
+    # the first layer holds the skirt; fuzzy skins, random seams and supports differ from layer to layer
+    repeats = (job.repeats if s.strategy == 2 and index > 0 and job.fuzzy is None
+               and s.seam_position != "random" and not s.support else None)
     if s.strategy == 2:
         regions = slice_layer(job.design, job.placement, job.palette, i, z_top, height, s)
         repeated = repeats.find(regions) if repeats is not None else None
@@ -207,13 +215,21 @@ def _layer_result(job: SliceJob, index: int) -> LayerResult:
         paths, short = strategy1.layer_paths(regions, below, above, field_, job.palette, s)
     if job.fuzzy is not None:
         paths.paths = job.fuzzy.apply(paths.paths, i, z_top - height / 2)
+    support = support_paths(job.supports[index], s) if job.supports else []
+    paths.paths += support
     if index == 0:
-        paths.paths = skirt_paths(regions.outline, s) + paths.paths
+        first = brim_area(regions.outline, s)
+        if support:
+            first = shapely.union_all([first, job.supports[0].body, job.supports[0].interface])
+        paths.paths = skirt_paths(first, s) + brim_paths(regions.outline, s) + paths.paths
     colors = len({p.color for p in paths.paths if p.color >= 0})
-    plan = order_layer(paths, job.palette.order_for_layer(i), job.start_xy, s.feature_order)
+    paths.paths = place_seams(paths.paths, s.seam_position, i)
+    plan = order_layer(paths, job.palette.order_for_layer(i), job.start_xy, s.feature_order,
+                       fixed_seams=s.seam_position != "nearest")
     prepare_bodies(plan, s, job.grading)
     result = LayerResult(plan=plan, short_pieces=short, uncovered_mm2=paths.uncovered_mm2, colors=colors,
-                         reassigned_mm2=paths.reassigned_mm2, commanded=paths.commanded)
+                         reassigned_mm2=paths.reassigned_mm2, commanded=paths.commanded,
+                         support_mm3=support_volume(support))
     if repeats is not None:
         repeats.keep(regions, plan, result)
     return result
@@ -225,6 +241,8 @@ def _part_footprint(job: SliceJob) -> shapely.Geometry:
     ox, oy, _ = job.placement.offset
     s = job.settings
     grow = s.skirt_distance + s.skirt_loops * s.bead_width if s.skirt_loops else 0.0
+    grow += s.brim_width + s.bead_width if s.brim_width > 0 else 0.0
+    grow += s.support_expansion + s.bead_width if s.support else 0.0  # support may reach past the part
     return shapely.box(x0 + ox, y0 + oy, x1 + ox, y1 + oy).buffer(grow, join_style="mitre")
 
 
@@ -337,6 +355,7 @@ def slice_to_gcode(
     levels = state_levels(attributes.ranges, attributes.cover, settings) if attributes is not None else None
     palette = make_palette(len(design.materials), settings.colors, settings.palette, levels)
     dialect = dialect_for(settings, palette, attributes is not None and "flow" in attributes.names)
+    check_support_state(settings, palette.size)
     placement = place_design(design, settings)
     layers = layer_heights(design, settings)
     check_resources(design, settings, len(layers))
@@ -353,10 +372,12 @@ def slice_to_gcode(
     with contextlib.ExitStack() as cleanup:
         tower = None
         sizer = PurgeSizer.for_palette(settings, palette)
-        if settings.strategy == 1:
+        if settings.strategy == 1 or settings.support:
             batches = [range(i, min(i + SECTION_BATCH, len(layers))) for i in range(0, len(layers), SECTION_BATCH)]
             job.outlines = list(itertools.chain.from_iterable(
                 map_ordered(_section_task, job, batches, jobs=jobs, scheduler=scheduler, probe=True)))
+        if settings.support:
+            job.supports = plan_supports(job.outlines, settings)
         if callable(thumbnails):
             render = _thumbnail_render(job, thumbnails)
             thumbnails = _start_thumbnails(render, cleanup) if jobs > 1 or scheduler else tuple(render())
@@ -368,6 +389,7 @@ def slice_to_gcode(
 
         short_records: list[strategy1.ShortPieces] = []
         uncovered = [0.0]
+        supported = [0.0]  # support volume, mm^3
         reassigned = []  # (layer, mm^2) of the layers that gave slivers away
         commanded: dict[str, list[float]] = {}  # the toolpaths' attribute ranges
         total = len(layers)
@@ -377,6 +399,7 @@ def slice_to_gcode(
                 if result.short_pieces:
                     short_records.append(result.short_pieces)
                 uncovered[0] += result.uncovered_mm2
+                supported[0] += result.support_mm3
                 if result.reassigned_mm2 > 0:
                     reassigned.append((done - 1, result.reassigned_mm2))
                 for name, (low, high) in result.commanded.items():
@@ -394,7 +417,8 @@ def slice_to_gcode(
         elif settings.dialect == "temperature" and settings.temperature_lead_s > 0:
             stream = apply_time_lead(stream, settings.temperature_lead_s, _speed_of(settings))
         elif settings.lookahead_distance > 0:
-            stream = apply_lookahead(stream, settings.lookahead_distance)
+            stream = apply_lookahead(stream, settings.lookahead_distance,
+                                     functools.partial(coasted_lengths, settings=settings) if settings.coast_mm else None)
 
         header = {
             "placement_offset": ",".join(f"{v:.4f}" for v in placement.offset),
@@ -461,6 +485,7 @@ def slice_to_gcode(
             "colors": palette.size,
             "strategy": settings.strategy,
             "uncovered_mm2": round(uncovered[0], 3),
+            "support_mm3": round(supported[0], 3),
             "reassigned_mm2": round(sum(area for _, area in reassigned), 3),
             "purge_mm3": round(purge_stats.purge_mm3, 3) if tower else 0.0,
             "purge_g": round(purge_stats.purge_g, 4) if tower else 0.0,

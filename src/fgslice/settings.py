@@ -70,6 +70,8 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     infill_density: Annotated[float, Meta(ge=0, le=100, description="strategy 1 sparse infill, percent")] = 20.0
     infill_pattern: Annotated[Literal["rectilinear", "concentric"], Meta(description="strategy 1 sparse infill pattern")] = "rectilinear"
     infill_angle: Annotated[float, Meta(ge=-360, le=360, description="direction of rectilinear lines on even layers, degrees")] = 45.0
+    seam_position: Annotated[Literal["nearest", "aligned", "rear", "random"], Meta(description="where closed loops (walls, concentric loops, skirt, brim) start: nearest the nozzle, at the sharpest corner, rearmost, or at random")] = "nearest"
+    bridge_flow: Annotated[float, Meta(ge=10, le=200, description="strategy 1: bridge lines extrude this percent of a bead's volume")] = 100.0
     feature_order: Annotated[Literal["walls_first", "infill_first"], Meta(description="within a color, strategy 1")] = "walls_first"
     min_segment_mm: Annotated[float, Meta(ge=0, le=1000, description="strategy 1 warns when color pieces are shorter, mm")] = 5.0
     zipper: Annotated[float, Meta(ge=0, le=100, description="zipper overlap band beta, percent of the gradient range")] = 0.0
@@ -83,6 +85,21 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     position_y: Annotated[float, Meta(ge=-5000, le=5000, description="part center Y when center = false, mm")] = 0.0
     skirt_loops: Annotated[int, Meta(ge=0, le=20, description="loops around the part on the first layer")] = 1
     skirt_distance: Annotated[float, Meta(ge=0, le=100, description="gap between skirt and part, mm")] = 3.0
+    brim_width: Annotated[float, Meta(ge=0, le=100, description="loops of a brim around the part on the first layer cover this width, mm; 0: no brim")] = 0.0
+
+    # -- support material ------------------------------------------------------------
+    support: Annotated[bool, Meta(description="print support under overhangs")] = False
+    support_angle: Annotated[float, Meta(ge=0, le=89, description="overhangs leaning further than this from the vertical get support, degrees")] = 45.0
+    support_to: Annotated[Literal["bed", "part"], Meta(description="support stands on the bed only (columns meeting the part are dropped) or also on the part")] = "bed"
+    support_xy_gap: Annotated[float, Meta(ge=0, le=10, description="gap between the part and the edge of a support bead, mm")] = 0.3
+    support_expansion: Annotated[float, Meta(ge=0, le=50, description="support reaches this far beyond the overhang it holds, for a wider footing, mm")] = 3.0
+    support_top_z_gap: Annotated[float, Meta(ge=0, le=10, description="gap between the top of the support and the surface it holds, mm (whole layers)")] = 0.2
+    support_bottom_z_gap: Annotated[float, Meta(ge=0, le=10, description="gap between the part and support standing on it, mm (whole layers)")] = 0.2
+    support_interface_layers: Annotated[int, Meta(ge=0, le=50, description="dense layers at the top of the support")] = 3
+    support_pattern: Annotated[Literal["rectilinear", "grid"], Meta(description="support lines along X (rectilinear) or along X and Y (grid)")] = "rectilinear"
+    support_spacing: Annotated[float, Meta(gt=0, le=50, description="distance between support lines, mm")] = 2.0
+    support_interface_spacing: Annotated[float, Meta(gt=0, le=50, description="distance between support interface lines, mm")] = 0.6
+    support_state: Annotated[int | Literal["current"], Meta(description="palette color support is printed in, or 'current': whatever state the nozzle is in (no state change, no purge)")] = "current"
 
     # -- purge and dead volume -------------------------------------------------------
     purge: Annotated[bool, Meta(description="strategy 1 purge tower on state changes")] = True
@@ -101,6 +118,7 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     print_speed: Annotated[float, Meta(gt=0, le=1000, description="perimeters and solid fill, mm/s")] = 40.0
     outer_wall_speed: Annotated[float, Meta(gt=0, le=1000, description="external perimeters, mm/s")] = 25.0
     infill_speed: Annotated[float, Meta(gt=0, le=1000, description="sparse infill, mm/s")] = 60.0
+    bridge_speed: Annotated[float, Meta(gt=0, le=1000, description="bridges, mm/s")] = 30.0
     first_layer_speed: Annotated[float, Meta(gt=0, le=1000, description="every extrusion on layer 0, mm/s")] = 20.0
     travel_speed: Annotated[float, Meta(gt=0, le=2000, description="travel moves, mm/s")] = 150.0
     z_speed: Annotated[float, Meta(gt=0, le=500, description="Z moves, mm/s")] = 10.0
@@ -109,6 +127,8 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     retract_length: Annotated[float, Meta(ge=0, le=50, description="retraction length, mm of filament")] = 0.8
     retract_speed: Annotated[float, Meta(gt=0, le=500, description="retraction speed, mm/s")] = 35.0
     retract_min_travel: Annotated[float, Meta(ge=0, le=1000, description="retract only on travels longer than this, mm")] = 1.0
+    coast_mm: Annotated[float, Meta(ge=0, le=20, description="before a retraction, move the path's last this many mm without extruding (coasting), mm")] = 0.0
+    wipe_mm: Annotated[float, Meta(ge=0, le=20, description="on a retraction, move back along the last path this far while retracting, mm")] = 0.0
     z_hop: Annotated[float, Meta(ge=0, le=10, description="lift on retracted travels, mm")] = 0.0
 
     # -- temperatures and cooling ----------------------------------------------------

@@ -436,7 +436,7 @@ def trace_from_plans(plans, centers: np.ndarray, settings) -> SegmentTrace:
     from fgslice.planning.plan import SetState
     from fgslice.toolpaths.paths import Role, bead_area
 
-    non_part = {Role.SKIRT, Role.WIPE_TOWER, Role.CUSTOM}
+    non_part = {Role.SKIRT, Role.WIPE_TOWER, Role.CUSTOM, Role.SUPPORT, Role.SUPPORT_INTERFACE}
     feature_of = dict(zip(Role, feature_of_roles([role.value for role in Role]).tolist()))
     rows = []   # (xy, z, (area, speed, color, part, layer, height, feature)) per path or travel
     color = None
@@ -487,7 +487,7 @@ SIMULATION_KEYS = (
     "temperature_a", "temperature_b", "nozzle_temperature", "filament_diameter", "layer_height", "bead_width",
     "travel_speed", "bed_x", "bed_y", "center", "position_x", "position_y",
 )
-_NON_PART_ROLES = ("skirt", "brim", "wipe", "prime", "purge", "custom")
+_NON_PART_ROLES = ("skirt", "brim", "wipe", "prime", "purge", "custom", "support")
 
 
 def simulation_settings(gcode: str | PathLike | bytes, profile: str | None = None, overrides: dict[str, str] | None = None):

@@ -54,6 +54,7 @@ import fgslice
 from fgslice.errors import SettingsError
 from fgslice.design.attributes import ROLE_SPEEDS
 from fgslice.design.base import Material
+from fgslice.machine.coasting import coast, wipe
 from fgslice.machine.dialects import PLACEHOLDER, Dialect, PaletteLike
 from fgslice.machine.grading import GRADING_SETTINGS, UNGRADED
 from fgslice.machine.prusa_config import footer_block
@@ -313,6 +314,7 @@ def role_speeds(settings: Settings, first_layer: bool) -> np.ndarray:
     if not first_layer:
         by_role[ROLE_CODE[Role.EXTERNAL_PERIMETER]] = s.outer_wall_speed
         by_role[ROLE_CODE[Role.INTERNAL_INFILL]] = s.infill_speed
+        by_role[ROLE_CODE[Role.BRIDGE_INFILL]] = s.bridge_speed
     return by_role
 
 
@@ -611,6 +613,7 @@ class GcodeWriter:
         self._width: float | None = None
         self._feed: float | None = None
         self._retracted = False
+        self._wipe_end: tuple[float, float] | None = None  # where the last wipe left the nozzle
         self._extruded = False
         self._fan_on = False
         self._e_written = 0.0
@@ -859,12 +862,15 @@ class GcodeWriter:
         retracted = retract.copy()
         retracted[0] |= self._retracted
         hop = retracted & travel & (s.z_hop > 0)
+        # paths ending before a retraction (or the layer change) coast and wipe there
+        ends_retracting = np.append(retract[1:], s.retract_length > 0)
+        wiped = ends_retracting if s.wipe_mm > 0 else np.zeros(n, dtype=bool)
         before_code = np.append(-1 if self._role is None else ROLE_CODE[self._role], codes[:-1])
         new_width = widths != np.append(np.nan if self._width is None else self._width, widths[:-1])
         new_feed = travel | (feeds != np.append(np.nan if self._feed is None else self._feed, feeds[:-1]))
 
         header, cuts = self._headers(
-            starts, travel, retract, hop, retracted,
+            starts, travel, retract & ~np.append(False, wiped[:-1]), hop, retracted,
             np.where(codes != before_code, codes, len(ROLES)),
             _choices(widths, new_width, lambda w: f";WIDTH:{fmt(w, 4)}\n"),
             (feed_table, np.where(new_feed, codes, len(ROLES))),
@@ -875,6 +881,10 @@ class GcodeWriter:
         pieces[1::2] = [text[a:b] for a, b in zip(bodies.bounds[rows].tolist(), bodies.bounds[rows + 1].tolist())]
         for k, change in changes.items():
             pieces[2 * k] = change + pieces[2 * k]
+        filament = bodies.e[rows]
+        if s.coast_mm > 0 or s.wipe_mm > 0:
+            filament = filament.copy()
+            self._coast_and_wipe(pieces, np.flatnonzero(ends_retracting), starts, filament, s.wipe_mm > 0)
         if bodies.fan is not None:
             self._command_fan(bodies.fan[rows], pieces)
         for name, ranges in (bodies.commanded or {}).items():
@@ -889,7 +899,6 @@ class GcodeWriter:
         paced = bodies.length if bodies.paced is None else bodies.paced
         self._time_s += float(dist.sum()) / s.travel_speed + float(np.sum(paced[rows] / feeds))
         self._travel_mm += float(dist.sum())
-        filament = bodies.e[rows]
         self._e_written += float(filament.sum())
         volume = filament * self.filament_area
         used, which = np.unique(colors[printed], return_inverse=True)
@@ -902,7 +911,28 @@ class GcodeWriter:
         self._role, self._width, self._feed = ROLES[codes[-1]], float(widths[-1]), float(feeds[-1])
         self._retracted = False
         self._extruded = True
+        if wiped[-1]:  # the layer's last path wiped and retracted already
+            self._pos, self._retracted = self._wipe_end, True
+            self._feed = None
+            self._retractions += 1
         return pieces
+
+    def _coast_and_wipe(self, pieces: list[str], paths: np.ndarray, starts: np.ndarray, filament: np.ndarray,
+                        wiping: bool) -> None:
+        """Coast the last ``coast_mm`` of each of ``paths`` (indices of printed paths) and,
+        with ``wiping``, wipe back along it while retracting (:mod:`.coasting`); lowers
+        ``filament`` (E per path) by what coasting no longer extrudes."""
+        s = self.settings
+        retract_feed, travel_feed = fmt(s.retract_speed * 60, 1), fmt(s.travel_speed * 60, 1)
+        for k in paths.tolist():
+            text, saved, points = coast(pieces[2 * k + 1], tuple(starts[k]), s.coast_mm)
+            filament[k] -= saved
+            if wiping:
+                moves, length, self._wipe_end = wipe(points, s.wipe_mm, s.retract_length, retract_feed, travel_feed)
+                text += moves
+                self._travel_mm += length
+                self._time_s += length / s.travel_speed
+            pieces[2 * k + 1] = text
 
     def _command_fan(self, fan: np.ndarray, pieces: list[str]) -> None:
         """Put an ``M106 S`` before the body of each printed path (``fan`` ``(n, 2)``, see

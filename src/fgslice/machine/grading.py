@@ -37,7 +37,8 @@ that the G-code of other designs is what it was before the setting existed."""
 CHECK_SAMPLES = 32
 """Grid points along the part's longest side when a slice checks its attributes."""
 
-UNGRADED = np.array([ROLE_CODE[r] for r in (Role.SKIRT, Role.WIPE_TOWER, Role.CUSTOM)])
+UNGRADED = np.array([ROLE_CODE[r] for r in (Role.SKIRT, Role.WIPE_TOWER, Role.CUSTOM, Role.SUPPORT,
+                                             Role.SUPPORT_INTERFACE)])
 """Role codes of paths that are not part of the design."""
 
 

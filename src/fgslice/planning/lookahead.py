@@ -42,12 +42,16 @@ from fgslice.toolpaths.paths import Path
 EPS = 1e-9
 
 
-def apply_lookahead(plans: Iterable[LayerPlan], distance_mm: float) -> Iterator[LayerPlan]:
+def apply_lookahead(plans: Iterable[LayerPlan], distance_mm: float,
+                    coasted: Callable[[list[Path]], np.ndarray] | None = None) -> Iterator[LayerPlan]:
     """Move every :class:`SetState` ``distance_mm`` of extruded path length earlier.
 
     Args:
         plans: the print's layer plans in order (consumed lazily).
         distance_mm: look-ahead distance, mm of extruded path (``Settings.lookahead_distance``).
+        coasted: per layer, the length (mm) at the end of each of its paths that the writer
+            will coast (:func:`fgslice.planning.coasting.coasted_lengths`): it extrudes
+            nothing, so it does not count.
 
     Yields:
         The same layers with state changes moved (and paths split where they land).
@@ -59,7 +63,7 @@ def apply_lookahead(plans: Iterable[LayerPlan], distance_mm: float) -> Iterator[
     if distance_mm == 0:
         yield from plans
         return
-    yield from shift_changes(plans, float(distance_mm), lambda path: 1.0)
+    yield from shift_changes(plans, float(distance_mm), lambda path: 1.0, coasted=coasted)
 
 
 def apply_time_lead(
@@ -170,17 +174,23 @@ def shift_changes(
     lead: float,
     rate_of: Callable[[Path], float],
     moves: Callable[[SetState], bool] | None = None,
+    coasted: Callable[[list[Path]], np.ndarray] | None = None,
 ) -> Iterator[LayerPlan]:
     """Place each SetState ``lead`` earlier in the cumulative measure ``sum(length * rate)``
     (``rate_of(path)`` per mm); with ``moves``, only the changes it accepts move, the
-    others keep their places."""
+    others keep their places; with ``coasted``, each path's measure leaves out the
+    length the writer coasts at its end (``coasted(paths)``, mm per path of a layer)."""
     pending: deque[_PendingLayer] = deque()
     waiting: list[SetState] = []  # clamped at the start of the print: before the next path
     total = 0.0
     for plan in plans:
         layer = _PendingLayer(plan, end=total)
         pending.append(layer)
-        lengths = iter(path_lengths([s for s in plan.steps if isinstance(s, Path)]).tolist())
+        layer_paths = [s for s in plan.steps if isinstance(s, Path)]
+        measured = path_lengths(layer_paths)
+        if coasted is not None and layer_paths:
+            measured = np.maximum(measured - coasted(layer_paths), 0.0)
+        lengths = iter(measured.tolist())
         for step in plan.steps:
             if isinstance(step, SetState) and moves is not None and not moves(step):
                 layer.changes.extend((total, change) for change in [*waiting, step])

@@ -74,6 +74,7 @@ def order_layer(
     color_sequence: np.ndarray,
     start_xy: np.ndarray,
     feature_order: str,
+    fixed_seams: bool = False,
 ) -> LayerPlan:
     """The layer's paths as an ordered plan with one :class:`SetState` per color group.
 
@@ -83,6 +84,9 @@ def order_layer(
             colors absent from the layer are skipped.
         start_xy: nozzle XY (mm) when the layer starts, e.g. the end of the previous layer.
         feature_order: ``"walls_first"`` or ``"infill_first"``.
+        fixed_seams: enter every closed path at its first point (its seam, placed by
+            :func:`fgslice.toolpaths.seams.place_seams`) instead of its vertex nearest
+            the nozzle.
 
     Returns:
         A :class:`LayerPlan`: color ``-1`` paths first (no state set), then for each color
@@ -128,7 +132,7 @@ def order_layer(
     unit_paths = np.add.reduceat(~loose, group_start)
     new_unit = new_group.copy()
     new_unit[1:] |= unit_rank[1:] != unit_rank[:-1]
-    layer = _Layer([items[i] for i in order.tolist()], loose)
+    layer = _Layer([items[i] for i in order.tolist()], loose, fixed_seams)
     chains = _Chains(layer, new_unit) if not loose.all() else None
     all_unit_starts = np.flatnonzero(new_unit & ~loose).tolist()
 
@@ -200,8 +204,9 @@ class _Layer:
         entry_offsets: ``(n + 1,)`` path ``i`` owns entries ``entry_offsets[i]:entry_offsets[i + 1]``.
     """
 
-    def __init__(self, paths: list[Path], loose: np.ndarray) -> None:
+    def __init__(self, paths: list[Path], loose: np.ndarray, fixed_seams: bool = False) -> None:
         n = len(paths)
+        self.fixed_seams = fixed_seams
         self.paths = paths
         arrays = list(map(attrgetter("points"), paths))
         sizes = np.fromiter(map(len, arrays), dtype=np.int64, count=n)
@@ -224,7 +229,9 @@ class _Layer:
         keep[first[open_loose]] = True
         keep[last[open_loose]] = True
         ring = np.flatnonzero(loose & closed)
-        if ring.size:
+        if fixed_seams:
+            keep[first[ring]] = True
+        elif ring.size:
             # Closed paths: keep a vertex each time the arc length enters a new bucket.
             ring_sizes = sizes[ring]
             ring_first = np.zeros(ring.size, dtype=np.int64)
@@ -253,7 +260,10 @@ class _Layer:
 
     def enter_closed(self, i: int, at: complex) -> tuple[int, complex]:
         """The vertex of closed path ``i`` nearest ``at`` (its index on the path, the
-        path's turn in :class:`_Steps`), and that vertex's position."""
+        path's turn in :class:`_Steps`), and that vertex's position; its first vertex
+        with fixed seams."""
+        if self.fixed_seams:
+            return 0, self.start[i]
         ring = self.xy[self.offsets[i] : self.offsets[i + 1]]
         vertex = int(np.abs(ring - at).argmin())
         return vertex, complex(ring[vertex])
@@ -285,7 +295,9 @@ class _Layer:
         dist = np.minimum(np.abs(start - at), np.abs(end - at))
         closed = np.array([self.closed[i] for i in indices.tolist()], dtype=bool)
         ring = indices[closed]
-        if ring.size:
+        if self.fixed_seams:
+            dist[closed] = np.abs(start[closed] - at)
+        elif ring.size:
             offsets = np.asarray(self.offsets)
             sizes = offsets[ring + 1] - offsets[ring]
             ring_first = np.zeros(ring.size, dtype=np.int64)

@@ -70,6 +70,7 @@ ROLE_COLORS = {
     "Skirt": (0, 135, 110),
     "Wipe tower": (179, 227, 171),
     "Support material": (0, 255, 0),
+    "Support material interface": (0, 128, 0),
     "Custom": (94, 209, 148),
 }
 """Display colors (sRGB 0-255) of PrusaSlicer's ``;TYPE:`` names, after its defaults."""

@@ -25,6 +25,9 @@ class Role(Enum):
     WIPE_TOWER = "Wipe tower"
     SKIRT = "Skirt/Brim"
     CUSTOM = "Custom"
+    SUPPORT = "Support material"
+    SUPPORT_INTERFACE = "Support material interface"
+    BRIDGE_INFILL = "Bridge infill"
 
 
 @dataclass(eq=False)

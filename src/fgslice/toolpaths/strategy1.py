@@ -23,6 +23,7 @@ import shapely
 
 from fgslice.settings import Settings
 from fgslice.slicing.layers import LayerRegions
+from fgslice.toolpaths.bridges import bridge_paths, split_bridges
 from fgslice.toolpaths.graded_infill import density_regions
 from fgslice.toolpaths.infill import uncovered_area
 from fgslice.toolpaths.paths import LayerPaths, Path, Role
@@ -77,8 +78,10 @@ def layer_paths(
     w, h = settings.bead_width, settings.layer_height
     walls = make_walls(regions.outline, settings.walls, w, h, outer_first=settings.wall_order == "outer_first")
     areas = split_inner(walls.inner, regions.outline, below, above, settings)
+    areas, bridges = split_bridges(areas, below[0] if below and settings.bottom_layers else None, settings)
     sparse = density_regions(areas.sparse, field, regions.z_plane, settings.infill_density)
     raw = simplify_paths(walls.paths, settings.gcode_resolution) + fill_inner(areas, regions.index, settings, sparse)
+    raw += bridge_paths(bridges, settings)
     cut = cut_by_color(raw, field, palette, regions.z_plane, regions.index, settings)
     out = LayerPaths(regions.index, regions.z, regions.height)
     out.paths = cut.paths

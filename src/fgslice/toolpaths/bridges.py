@@ -1,0 +1,70 @@
+"""Bridges: solid areas over air, filled in one direction across their shortest span.
+
+Strategy 1 (bed frame, mm). A layer's *bridge* is the part of its top and solid skin with
+nothing of the layer below under it (outline minus the outline below), less what is
+narrower than a bead (an opening by ``w / 2``: the edge of a gently leaning wall is no
+bridge), grown by :data:`ANCHOR_BEADS` beads into the skin around it so that the lines
+reach onto what carries them, as PrusaSlicer anchors its bridges. Each connected bridge
+is filled with parallel lines along the short side of its minimum rotated rectangle,
+i.e. across its shortest span (a roof over a channel: from one wall to the other),
+linked into serpentines inside the bridge; role BRIDGE_INFILL (PrusaSlicer's ``Bridge
+infill``), printed at ``bridge_speed`` (:func:`fgslice.machine.gcode.role_speeds`). Their
+bead cross-section is ``bridge_flow`` percent of a bead's (the width that gives it, lines
+``A' / h`` apart, so a bridge of area ``R`` still receives ``R h`` times the flow). Needs
+``bottom_layers >= 1`` (the outline below is the nearest of the bottom-skin neighbours).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import shapely
+
+from fgslice.settings import Settings
+from fgslice.toolpaths.infill import line_fill, open_paths
+from fgslice.toolpaths.paths import Path, Role, bead_area
+from fgslice.toolpaths.skins import InnerAreas
+from fgslice.toolpaths.walls import opening
+
+ANCHOR_BEADS = 2.0
+"""How far (in bead widths) a bridge reaches into the skin around it."""
+
+
+def split_bridges(areas: InnerAreas, below, settings: Settings) -> tuple[InnerAreas, shapely.Geometry]:
+    """``areas`` without their bridges, and the bridges (see the module); ``below``: the
+    outline of the layer under this one (None on the first layer: the bed carries it)."""
+    skins = shapely.union(areas.top, areas.solid)
+    if below is None or skins.is_empty:
+        return areas, shapely.Polygon()
+    w = settings.bead_width
+    over_air = opening(shapely.difference(skins, below), w / 2)
+    if over_air.is_empty:
+        return areas, over_air
+    bridges = shapely.intersection(shapely.buffer(over_air, ANCHOR_BEADS * w, join_style="mitre"), skins)
+    return InnerAreas(shapely.difference(areas.top, bridges), shapely.difference(areas.solid, bridges),
+                      areas.sparse), bridges
+
+
+def span_angle(region) -> float:
+    """Direction (degrees) of the short side of ``region``'s minimum rotated rectangle."""
+    corners = np.asarray(shapely.minimum_rotated_rectangle(region).exterior.coords)[:3]
+    sides = np.diff(corners, axis=0)
+    short = sides[np.argmin(np.hypot(*sides.T))]
+    return math.degrees(math.atan2(short[1], short[0])) % 180.0
+
+
+def bridge_paths(bridges, settings: Settings) -> list[Path]:
+    """Lines across each bridge's shortest span (see the module), color 0 (cut into colors later)."""
+    if bridges.is_empty:
+        return []
+    w, h = settings.bead_width, settings.layer_height
+    area = bead_area(w, h) * settings.bridge_flow / 100.0
+    width = max((area - math.pi * h * h / 4) / h + h, h)
+    out: list[Path] = []
+    for part in shapely.get_parts(bridges):
+        if part.area < w * w:
+            continue
+        points, chain, _ = line_fill(part, area / h, span_angle(part), width)
+        out += open_paths(points, chain, Role.BRIDGE_INFILL, 0, width, h)
+    return out

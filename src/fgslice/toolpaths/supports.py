@@ -1,0 +1,209 @@
+"""Support material: where overhangs need it (from consecutive layer outlines), and its
+lines.
+
+Regions (:func:`plan_supports`, for the whole print, top layer down; bed frame, mm):
+
+1. **Overhangs.** Layer ``k``'s overhang is its outline minus the outline of layer
+   ``k - 1`` grown by ``h tan(support_angle)`` (``support_angle`` from the vertical, as
+   Cura's overhang angle: a wall leaning further out than that from one layer to the next
+   needs support), opened by :data:`SLIVER_MM` so that the slivers of a wall leaning
+   exactly at the angle are dropped, pieces under ``w^2`` dropped; the enforcers of the design
+   (where its ``support`` material wins) are added. Each overhang is smoothed by a
+   closing of :data:`CLOSING_MM` (bits a few mm apart become one area, as PrusaSlicer's
+   closing radius) and grown by ``w / 2 + support_expansion`` (the beads along its edge
+   lie on support, and the support's footing is wider than the overhang, as PrusaSlicer's
+   support, whose areas it snaps outward to its line grid).
+2. **Projection.** The support of layer ``j`` is that of layer ``j + 1`` plus the
+   overhangs of layer ``j + 1 + top`` (``top`` = ``support_top_z_gap`` in whole layers: the
+   support's top stays that far below the surface it holds), minus the part grown by
+   the XY gap (``support_xy_gap`` between the part and a support bead's edge, so the
+   region keeps ``support_xy_gap + w / 2`` away from the outline). ``support_to = bed``:
+   support only stands on the bed, so a column that meets the part on its way down is
+   dropped whole (the region minus every layer's outline at or below ``j``, grown by the
+   gap); ``support_to = part``: it may also stand on the part, ``bottom`` layers
+   (``support_bottom_z_gap``) above its surface.
+3. **Interface.** Of each layer's support, what is not support on every one of the
+   ``support_interface_layers`` layers above it is interface (the top of each column).
+
+Lines (:func:`support_paths`): the body gets a sheath (one loop ``w / 2`` inside its
+edge, as PrusaSlicer's default, so that the interface's line ends lie on something) and
+inside it lines ``support_spacing`` apart
+along X on every layer (the same grid, so they stack into walls; ``grid`` adds lines
+along Y), role SUPPORT; the interface with lines ``support_interface_spacing`` apart
+along Y, role SUPPORT_INTERFACE; neighbouring lines are linked into serpentines where
+the link lies inside the region. Their color is :func:`support_color`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+
+from fgslice.errors import SettingsError
+from fgslice.settings import Settings
+from fgslice.toolpaths.infill import line_fill, open_paths
+from fgslice.toolpaths.paths import Path, Role, bead_area
+from fgslice.toolpaths.walls import bead_spacing, opening, ring_groups, split_rings
+
+SLIVER_MM = 0.005
+"""Overhangs are opened by this radius (mm): what a wall leaning exactly at the angle
+leaves is rounding, not overhang."""
+
+CLOSING_MM = 2.0
+"""Closing radius that smooths each overhang's support area, mm."""
+
+CURRENT_STATE = -1
+"""Support color with ``support_state = current``: printed in whatever state is current."""
+
+
+@dataclass(frozen=True)
+class SupportLayer:
+    """One layer's support regions (bed frame, mm): ``body`` filled sparsely, ``interface``
+    densely; either may be empty."""
+
+    body: shapely.Geometry
+    interface: shapely.Geometry
+
+    @property
+    def empty(self) -> bool:
+        return self.body.is_empty and self.interface.is_empty
+
+
+def _layers(value: float, h: float) -> int:
+    """A z gap (mm) in whole layers of height ``h``."""
+    return int(round(value / h))
+
+
+def overhangs(outlines: list[shapely.Geometry], settings: Settings) -> np.ndarray:
+    """Per layer, the area that needs support under it (empty on layer 0), smoothed and
+    grown as the module says."""
+    w, h = settings.bead_width, settings.layer_height
+    n = len(outlines)
+    out = np.full(n, shapely.Polygon(), dtype=object)
+    if n < 2:
+        return out
+    reach = h * math.tan(math.radians(settings.support_angle))
+    lower = shapely.buffer(np.asarray(outlines[:-1], dtype=object), reach, join_style="mitre", mitre_limit=3.0)
+    raw = shapely.difference(np.asarray(outlines[1:], dtype=object), lower)
+    raw = opening(raw, SLIVER_MM)
+    parts, owner = shapely.get_parts(raw, return_index=True)
+    big = shapely.area(parts) >= w * w
+    if not big.any():
+        return out
+    merged = np.full(n - 1, shapely.Polygon(), dtype=object)
+    for k in np.unique(owner[big]).tolist():
+        merged[k] = shapely.union_all(parts[big & (owner == k)])
+    smooth = shapely.buffer(shapely.buffer(merged, CLOSING_MM, join_style="mitre", mitre_limit=3.0), -CLOSING_MM,
+                            join_style="mitre", mitre_limit=3.0)
+    grown = shapely.buffer(smooth, w / 2 + settings.support_expansion, join_style="mitre", mitre_limit=3.0)
+    out[1:] = np.where(shapely.is_empty(merged), merged, grown)
+    return out
+
+
+def plan_supports(outlines: list[shapely.Geometry], settings: Settings,
+                  enforcers: list[shapely.Geometry] | None = None) -> list[SupportLayer]:
+    """Every layer's support regions (see the module); ``enforcers``: per layer, areas
+    that get support whether they overhang or not (bed frame), or None."""
+    n = len(outlines)
+    w, h = settings.bead_width, settings.layer_height
+    empty = shapely.Polygon()
+    if n == 0:
+        return []
+    need = overhangs(outlines, settings)
+    if enforcers is not None:
+        need = shapely.union(need, np.asarray(enforcers, dtype=object))
+    top, bottom = _layers(settings.support_top_z_gap, h), _layers(settings.support_bottom_z_gap, h)
+    keep_out = shapely.buffer(np.asarray(outlines, dtype=object), settings.support_xy_gap + w / 2,
+                              join_style="mitre", mitre_limit=3.0)
+    if settings.support_to == "bed":
+        shadow, below = empty, []
+        for grown in keep_out:
+            shadow = shapely.union(shadow, grown)
+            below.append(shadow)
+    regions = [empty] * n
+    carried = empty
+    for j in range(n - 1, -1, -1):
+        k = j + 1 + top
+        if k < n and not need[k].is_empty:
+            carried = shapely.union(carried, need[k])
+        if carried.is_empty:
+            continue
+        if settings.support_to == "bed":
+            carried = shapely.difference(carried, below[j])
+        else:
+            carried = shapely.difference(carried, shapely.union_all(keep_out[max(0, j - bottom) : j + 1]))
+        carried = _without_crumbs(carried, w)
+        regions[j] = carried
+    layers = []
+    for j in range(n):
+        above = regions[j + 1 : j + 1 + settings.support_interface_layers]
+        if regions[j].is_empty:
+            layers.append(SupportLayer(empty, empty))
+            continue
+        if not settings.support_interface_layers:
+            covered = regions[j]
+        elif len(above) < settings.support_interface_layers or any(r.is_empty for r in above):
+            covered = empty
+        else:
+            covered = shapely.intersection_all(above)
+        body = shapely.intersection(regions[j], covered)
+        interface = shapely.difference(regions[j], covered)
+        layers.append(SupportLayer(_without_crumbs(body, w), _without_crumbs(interface, w)))
+    return layers
+
+
+def _without_crumbs(region: shapely.Geometry, w: float) -> shapely.Geometry:
+    """``region`` without its polygons smaller than a bead square (``w^2``)."""
+    if region.is_empty:
+        return region
+    parts = shapely.get_parts(region)
+    parts = parts[shapely.area(parts) >= w * w]
+    return shapely.union_all(parts) if len(parts) else shapely.Polygon()
+
+
+def check_support_state(settings: Settings, palette_size: int) -> None:
+    """A SettingsError when ``support_state`` names a color the palette lacks."""
+    state = settings.support_state
+    if settings.support and state != "current" and not 0 <= state < palette_size:
+        raise SettingsError(
+            f"support_state = {state} is not a color of this {palette_size}-color palette",
+            hint=f"--set support_state=current, or a color from 0 to {palette_size - 1}",
+        )
+
+
+def support_color(settings: Settings) -> int:
+    """The palette color support is printed in: ``support_state``, or
+    :data:`CURRENT_STATE` (whatever state the nozzle is in) for ``current``."""
+    return CURRENT_STATE if settings.support_state == "current" else int(settings.support_state)
+
+
+def support_paths(layer: SupportLayer, settings: Settings) -> list[Path]:
+    """The support lines of one layer (see the module)."""
+    if layer.empty:
+        return []
+    w, h = settings.bead_width, settings.layer_height
+    color = support_color(settings)
+    out: list[Path] = []
+    angles = (0.0, 90.0) if settings.support_pattern == "grid" else (0.0,)
+    if not layer.body.is_empty:
+        s = bead_spacing(w, h)
+        sheath = shapely.buffer(layer.body, -w / 2, join_style="mitre", mitre_limit=3.0)
+        coords, ring, _ = ring_groups(sheath)
+        out += split_rings(coords, ring, Role.SUPPORT, color, w, h)
+        inside = shapely.buffer(sheath, -s / 2, join_style="mitre", mitre_limit=3.0)
+        for angle in angles:
+            points, chain, _ = line_fill(inside, settings.support_spacing, angle, w)
+            out += open_paths(points, chain, Role.SUPPORT, color, w, h)
+    if not layer.interface.is_empty:
+        points, chain, _ = line_fill(layer.interface, settings.support_interface_spacing, 90.0, w)
+        out += open_paths(points, chain, Role.SUPPORT_INTERFACE, color, w, h)
+    return out
+
+
+def support_volume(paths: list[Path]) -> float:
+    """Extruded volume of the support paths among ``paths``, mm^3."""
+    return float(sum(p.length * bead_area(p.width, p.height) for p in paths
+                     if p.role in (Role.SUPPORT, Role.SUPPORT_INTERFACE)))
