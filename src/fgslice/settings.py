@@ -104,6 +104,15 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     travel_speed: Annotated[float, Meta(gt=0, le=2000, description="travel moves, mm/s")] = 150.0
     z_speed: Annotated[float, Meta(gt=0, le=500, description="Z moves, mm/s")] = 10.0
 
+    # -- motion (the time estimate: docs/gcode.md, "Print time") ----------------------
+    motion_planner: Annotated[Literal["klipper", "marlin"], Meta(description="firmware whose motion planner the time estimate follows: klipper (square_corner_velocity, minimum_cruise_ratio) or marlin (junction_deviation; classic jerk when it is 0)")] = "marlin"
+    acceleration: Annotated[float, Meta(gt=0, le=100000, description="printing and travel acceleration (Klipper's max_accel, Marlin's M204), mm/s^2")] = 3000.0
+    z_acceleration: Annotated[float, Meta(gt=0, le=100000, description="largest acceleration along Z (Klipper's max_z_accel, Marlin's Z max acceleration), mm/s^2")] = 100.0
+    retract_acceleration: Annotated[float | Literal["auto"], Meta(description="acceleration of retractions and other extrude-only moves, mm/s^2; 'auto': the firmware's default (Klipper: acceleration x 4 nozzle_diameter^2 / filament cross-section, Marlin: acceleration)")] = "auto"
+    square_corner_velocity: Annotated[float, Meta(ge=0, le=1000, description="Klipper: speed through a 90 degree corner, mm/s")] = 5.0
+    minimum_cruise_ratio: Annotated[float, Meta(ge=0, lt=1, description="Klipper: share of a short move that cruises (its planner's pseudo-acceleration is acceleration x (1 - ratio))")] = 0.5
+    junction_deviation: Annotated[float, Meta(ge=0, le=10, description="Marlin: junction deviation, mm; 0 for classic jerk")] = 0.013
+    jerk: Annotated[float, Meta(gt=0, le=1000, description="Marlin with junction_deviation = 0: classic jerk of X and Y, mm/s (Z 0.3, E 5)")] = 10.0
     # -- retraction ------------------------------------------------------------------
     retract_length: Annotated[float, Meta(ge=0, le=50, description="retraction length, mm of filament")] = 0.8
     retract_speed: Annotated[float, Meta(gt=0, le=500, description="retraction speed, mm/s")] = 35.0
@@ -154,6 +163,8 @@ class Settings(_Fields, kw_only=True, frozen=True, forbid_unknown_fields=True):
             )
         if self.lookahead_mm != "auto" and self.lookahead_mm < 0:
             raise ValueError("lookahead_mm must be >= 0 or 'auto'")
+        if self.retract_acceleration != "auto" and self.retract_acceleration <= 0:
+            raise ValueError("retract_acceleration must be > 0 or 'auto'")
         if self.purge_tolerance != "auto" and self.purge_tolerance <= 0:
             raise ValueError("purge_tolerance must be > 0 or 'auto'")
 

@@ -907,3 +907,26 @@ def read_gcode(path_or_text: str | os.PathLike | bytes, *, chunk_lines: int = CH
     joined = {name: np.concatenate(parts.pop(name)) for name in _ARRAY_FIELDS}
     return GcodeProgram(**joined, **events, roles=last.roles, states=last.states, layer_z=last.layer_z,
                         line_count=last.line_count)
+
+
+class GcodeStream:
+    """Reads G-code handed over piece by piece, each piece whole lines (the writer's text
+    as it is written, say): :meth:`read` returns the piece's moves and events as a
+    :class:`GcodeProgram`, with line numbers and machine state carried over from the
+    pieces before, as :func:`iter_gcode` does for the chunks of a file."""
+
+    def __init__(self) -> None:
+        self._reader = _Reader()
+
+    @property
+    def line_count(self) -> int:
+        """Lines read so far."""
+        return self._reader.line_count
+
+    def read(self, text: str | bytes) -> GcodeProgram:
+        """The moves and events of ``text``: whole lines, at least one (a missing last
+        newline is taken as there)."""
+        data = text.encode("utf-8") if isinstance(text, str) else text
+        if not data.endswith(b"\n"):
+            data += b"\n"
+        return self._reader.chunk(data, np.flatnonzero(np.frombuffer(data, dtype=np.uint8) == 10))
