@@ -45,6 +45,8 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     max_z: Annotated[float, Meta(gt=0, le=5000, description="build height, mm")] = 250.0
     nozzle_diameter: Annotated[float, Meta(gt=0.05, le=5.0, description="nozzle bore, mm")] = 0.4
     filament_diameter: Annotated[float, Meta(gt=0.1, le=5.0, description="filament diameter, mm")] = 1.75
+    host_filament_type: Annotated[str, Meta(min_length=1, max_length=32, pattern=r"^[A-Za-z0-9_+-]+$", description="filament type hosts show (PrusaSlicer's filament_type: PLA, PETG, FLEX, ...)")] = "PLA"
+    host_filament_name: Annotated[str, Meta(max_length=200, description="name of the filament hosts show on one-extruder machines (temperature and template dialects); empty: the design's first material")] = ""
     filament_density: Annotated[float, Meta(gt=0.1, le=25.0, description="filament density for mass estimates, g/cm^3")] = 1.24
 
     # -- state of a color ---------------------------------------------------------

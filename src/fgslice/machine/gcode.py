@@ -56,7 +56,7 @@ from fgslice.errors import SettingsError
 from fgslice.design.base import Material
 from fgslice.machine.dialects import PLACEHOLDER, Dialect, PaletteLike
 from fgslice.machine.grading import GRADING_SETTINGS, UNGRADED
-from fgslice.machine.prusa_config import footer_block
+from fgslice.machine.prusa_config import footer_block, tool_volumes
 from fgslice.machine.thumbnails import thumbnail_block
 from fgslice.machine.timing import TimeModel
 from fgslice.planning.plan import EXTRA, ROLE_CODE, ROLES, STATE, LayerPlan, Prepared, SetState
@@ -617,10 +617,14 @@ class GcodeWriter:
     # -- header ---------------------------------------------------------------------
     def recorded_settings(self) -> dict[str, object]:
         """The settings the file records (header and settings block), by name: all of them
-        but the attribute-grading ones when the design grades no instantaneous attribute."""
+        but the attribute-grading ones when the design grades no instantaneous attribute;
+        ``nozzle_temperature`` without a needless ``.0``."""
         unused = (() if self.grading is not None else GRADING_SETTINGS) + (
             () if isinstance(self.palette, StatePalette) else STATE_SETTINGS)
-        return {k: v for k, v in self.settings.as_dict().items() if k not in unused}
+        recorded = {k: v for k, v in self.settings.as_dict().items() if k not in unused}
+        # Moonraker reads the first '; nozzle_temperature' (the header's, in a file under 1 MiB) as integers
+        recorded["nozzle_temperature"] = fmt(self.settings.nozzle_temperature, 1)
+        return recorded
 
     def write_header(self) -> None:
         """The first line, thumbnails, comments, settings, palette and start G-code."""
@@ -944,7 +948,9 @@ class GcodeWriter:
             "",
             f"; filament used [mm] = {filament_mm:.2f}",
             f"; filament used [cm3] = {extruded / 1000.0:.2f}",
-            f"; filament used [g] = {extruded * grams_per_mm3:.2f}",
+            "; filament used [g] = " + ", ".join(
+                f"{v * grams_per_mm3:.2f}" for v in tool_volumes(s, self.palette, self.materials, self._volume_by_color)),
+            f"; total filament used [g] = {extruded * grams_per_mm3:.2f}",
             f"; state changes = {self._state_changes}",
             f"; estimated printing time (normal mode) = {format_duration(time_s)}",
             *footer_block(s, self.palette, self.materials, version=fgslice_version(),
