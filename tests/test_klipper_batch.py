@@ -44,17 +44,22 @@ from __future__ import annotations
 
 import fcntl
 import os
+import re
 import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from fgslice.design import api
 from fgslice.design.language import load_design
 from fgslice.errors import FgsliceError
-from fgslice.machine.klipper import KlipperBatch
+from fgslice.machine.gcode_reader import read_gcode
+from fgslice.machine.klipper import MIX_LETTERS, KlipperBatch, mcu_pins, printer_cfg
 from fgslice.pipeline import slice_to_gcode
 from fgslice.settings import Settings, load_settings
+from fgslice.slicing.palette import Palette
 
 ROOT = Path(__file__).resolve().parents[1]
 KLIPPER = os.environ.get("FGSLICE_KLIPPER", "")
@@ -111,6 +116,9 @@ CASES = [
     ("temperature_gradient.vcad", "toolchanger", {"colors": "4"}),
     ("cylinder_z_gradient.vcad", "foam-tpu", {"strategy": "1", "layer_height": "0.3"}),
     ("dogbone.vcad", "template-diw", {}),
+    ("dogbone.vcad", "klipper-diw", {}),
+    ("temperature_gradient.vcad", "klipper-mixing", {}),
+    ("palette.vcad", "klipper-mixing", {"strategy": "2", "fill_pattern": "rectilinear", "channels": "3"}),
 ]
 
 
@@ -150,3 +158,37 @@ def test_klipper_plans_the_estimated_time(klipper, tmp_path, planner):
     stats = slice_to_gcode(load_design(ROOT / "examples" / "fan_gradient.vcad"), settings, gcode, jobs=1).stats
     planned = klipper.print_time(klipper.config(settings), gcode, tmp_path)
     assert abs(stats["estimated_time_s"] / planned - 1) < 0.03, (stats["estimated_time_s"], planned)
+
+
+def test_klipper_mixing_feeds_every_channel_its_share(klipper, tmp_path):
+    """Each channel's steps in Klipper's output, times its rotation distance, are the
+    filament the mixture asks of it: the sum over moves of E times the channel's fraction
+    in the move's state (a third channel the design leaves empty, and the pure colors of
+    an 'ends' palette, unsync channels). The design: a cylinder graded blue to yellow
+    along z."""
+    settings = load_settings("klipper-mixing", {"channels": "3", "palette": "ends", "colors": "5"})
+    gcode = tmp_path / "part.gcode"
+    design = api.design(api.fgrade(["z/6", "1-z/6"], ["blue", "yellow"], api.translate((0, 0, 3), api.cylinder(10, 6))))
+    slice_to_gcode(design, settings, gcode, jobs=1)
+    assert "MOTION_QUEUE=\n" in gcode.read_text(encoding="utf-8")
+    digital, analog = mcu_pins(klipper.dictionary)
+    config = printer_cfg(settings, digital, analog)
+    run = klipper.run(config, gcode, tmp_path)
+    assert run.returncode == 0 and not run.problems, run.log
+    steps = klipper.step_counts(run.serial)
+    program = read_gcode(gcode)
+    palette = Palette(2, settings.colors, settings.palette)
+    colors = program.color_of_moves()
+    share = np.ones((len(colors), settings.channels))  # before any state: every channel as configured
+    known = colors >= 0
+    share[known] = 0.0
+    share[known, :2] = palette.centers[colors[known]].round(4)
+    expected = share.T @ program.e
+    per_step = settings.mixing_rotation_distance / 3200  # 200 full steps x 16 microsteps
+    for i, want in enumerate(expected.tolist()):
+        pin = re.search(rf"\[extruder_stepper mix_{MIX_LETTERS[i].lower()}\]\nextruder: extruder\nstep_pin: (\w+)",
+                        config).group(1)
+        got = abs(steps.get(pin, 0)) * per_step
+        assert got == pytest.approx(want, rel=0.01, abs=0.05), (MIX_LETTERS[i], got, want)
+    # the empty channel moved only before the first state (as configured), both others much more
+    assert expected[2] == pytest.approx(program.e[~known].sum()) and min(expected[:2]) > 10 * abs(expected[2])

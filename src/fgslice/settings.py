@@ -28,7 +28,7 @@ from msgspec import Meta
 
 from fgslice.errors import SettingsError, did_you_mean
 
-Dialect = Literal["marlin-mixing", "marlin-mixing-m163", "toolchanger", "temperature", "template"]
+Dialect = Literal["marlin-mixing", "marlin-mixing-m163", "klipper-mixing", "toolchanger", "temperature", "template"]
 
 
 class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=True):
@@ -39,6 +39,7 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     description: Annotated[str, Meta(description="one line about the machine")] = ""
     dialect: Annotated[Dialect, Meta(description="how a state change is written")] = "marlin-mixing"
     channels: Annotated[int, Meta(ge=1, le=6, description="mixing channels (A, B, C, ...) of a mixing hotend")] = 2
+    mixing_rotation_distance: Annotated[float, Meta(gt=0, le=1000, description="klipper-mixing: rotation_distance of every channel's [extruder_stepper] in printer.cfg, mm")] = 33.5
     tool_count: Annotated[int, Meta(ge=1, le=64, description="tools of a toolchanger (T0..Tn-1)")] = 5
     bed_x: Annotated[float, Meta(gt=0, le=5000, description="bed width, mm")] = 220.0
     bed_y: Annotated[float, Meta(gt=0, le=5000, description="bed depth, mm")] = 220.0

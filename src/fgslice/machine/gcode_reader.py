@@ -14,9 +14,9 @@ E), ``M82``/``M83`` (absolute/relative E), ``G92`` (set position, including ``G9
 ``T<n>``, ``M165``, ``M163``/``M164``, ``M104``/``M109`` (S, R, T), ``M140``/``M190``,
 ``M221``, ``M106``/``M107``, ``M42``, and the comments ``;LAYER_CHANGE`` (or Cura's
 ``;LAYER:<n>``), ``;Z:``, ``;TYPE:``, ``;WIDTH:``, ``;STATE:<n>``. Other commands are
-kept as line numbers only. A number that is not a finite number (``X1e999``, ``Ynan``,
-``Eabc``) becomes a :class:`Fault` and the word is ignored; the reader never raises on
-such content. A file that is not G-code text (binary, empty, no moves) is a
+kept as line numbers only (Klipper's extended commands ``NAME KEY=VALUE`` among them).
+A number that is not a finite number (``X1e999``, ``Ynan``, ``Eabc``) becomes a
+:class:`Fault` and the word is ignored; the reader never raises on such content. A file that is not G-code text (binary, empty, no moves) is a
 :class:`~fgslice.errors.GcodeError`.
 """
 
@@ -371,6 +371,9 @@ class _Events:
         if not words:
             return
         cmd = words[0].upper()
+        if "=" in raw[:semi] if semi >= 0 else "=" in raw:  # Klipper's extended commands: NAME KEY=VALUE
+            self.unknown.append(num)
+            return
         p = self._params(words, num)
         if cmd[0] == "T" and cmd[1:].isdecimal():
             self.tool = int(cmd[1:])

@@ -6,7 +6,8 @@ printer with the bed, speeds and motion limits of the settings (``max_accel`` =
 minimum cruise ratio, or for a Marlin profile their equivalents: the square corner
 velocity of its junction deviation, ``sqrt(junction_deviation x acceleration / (sqrt 2 -
 1))``, no cruise ratio and ``max_extrude_only_accel`` = ``acceleration``), an
-``[extruder]`` per tool, ``[output_pin]`` sections for the pins the G-code sets, and
+``[extruder]`` per tool, the channels of a ``klipper-mixing`` hotend
+(:func:`mixing_sections`), ``[output_pin]`` sections for the pins the G-code sets, and
 macros for what Klipper lacks (Marlin's mixing commands, which are checked as
 ``verify_gcode`` does; ``M42``; tool changes, which dwell the dialect's change time). Pins are taken from the micro-controller's data dictionary, so any build
 serves (Klipper's Linux process, an atmega2560...).
@@ -71,6 +72,21 @@ def junction_velocity(settings: Settings) -> float:
     return math.sqrt(settings.junction_deviation * settings.acceleration / (math.sqrt(2) - 1))
 
 
+def mixing_sections(settings: Settings, pins: list[tuple[str, str, str]] | None = None) -> str:
+    """The printer.cfg sections of a ``klipper-mixing`` hotend's channels: an
+    ``[extruder_stepper mix_a]``.. each, synced to ``[extruder]`` (which keeps the heater and
+    has no stepper of its own) at ``mixing_rotation_distance``. ``pins``: each channel's
+    (step, dir, enable) pins; named placeholders without."""
+    out = []
+    for i in range(settings.channels):
+        name = MIX_LETTERS[i].lower()
+        step, direction, enable = pins[i] if pins else (f"<step pin {name}>", f"<dir pin {name}>",
+                                                        f"<enable pin {name}>")
+        out.append(f"[extruder_stepper mix_{name}]\nextruder: extruder\nstep_pin: {step}\ndir_pin: {direction}\n"
+                   f"enable_pin: !{enable}\nmicrosteps: 16\nrotation_distance: {settings.mixing_rotation_distance}\n")
+    return "\n".join(out)
+
+
 def _marlin_mixing_macros(settings: Settings) -> str:
     channels = list(MIX_LETTERS[:settings.channels])
     zeros = [0.0] * settings.channels
@@ -128,15 +144,19 @@ def printer_cfg(settings: Settings, digital: list[str], analog: list[str]) -> st
             "homing_speed: 50\n")
     tools = s.tool_count if s.dialect == "toolchanger" else 1
     e_accel = s.retract_acceleration if s.retract_acceleration != "auto" else (None if klipper else s.acceleration)
+    mixing = s.dialect == "klipper-mixing"
     for tool in range(tools):
+        stepper = "" if mixing else (f"step_pin: {pin()}\ndir_pin: {pin()}\nenable_pin: !{pin()}\nmicrosteps: 16\n"
+                                     "rotation_distance: 33.5\n")
         sections.append(
-            f"[extruder{tool or ''}]\nstep_pin: {pin()}\ndir_pin: {pin()}\nenable_pin: !{pin()}\nmicrosteps: 16\n"
-            f"rotation_distance: 33.5\nnozzle_diameter: {s.nozzle_diameter}\n"
+            f"[extruder{tool or ''}]\n{stepper}nozzle_diameter: {s.nozzle_diameter}\n"
             f"filament_diameter: {s.filament_diameter}\nheater_pin: {pin()}\n"
             f"sensor_type: EPCOS 100K B57560G104F\nsensor_pin: {analog[tool + 1]}\ncontrol: pid\npid_Kp: 22.2\n"
             f"pid_Ki: 1.08\npid_Kd: 114\nmin_temp: 0\nmax_temp: {s.max_nozzle_temperature}\n"
             f"min_extrude_temp: {s.min_extrude_temperature}\n"
             + (f"max_extrude_only_accel: {e_accel}\n" if e_accel else ""))
+    if mixing:
+        sections.append(mixing_sections(s, [(pin(), pin(), pin()) for _ in range(s.channels)]))
     if s.dialect == "toolchanger":
         dwell = f"\n  G4 P{Toolchanger.change_time_s * 1000:.0f}" if Toolchanger.change_time_s else ""
         sections += [f"[gcode_macro T{tool}]\ngcode:\n  ACTIVATE_EXTRUDER EXTRUDER=extruder{tool or ''}{dwell}\n"
@@ -248,3 +268,24 @@ class KlipperBatch:
                                    + "; ".join(run.problems[:5] or [run.log[-2000:]]))
             times.append(run.print_time_s)
         return times[0] - times[1]
+
+    def step_counts(self, serial: Path) -> dict[str, int]:
+        """Net steps (forward minus backward) each stepper made in the micro-controller
+        commands ``serial`` (read with Klipper's ``klippy/parsedump.py``), by step pin."""
+        dump = subprocess.run([str(self.python), str(self.klippy.parent / "parsedump.py"), str(self.dictionary),
+                               str(serial)], capture_output=True, text=True, timeout=self.timeout_s, check=True)
+        pins: dict[int, str] = {}
+        direction: dict[int, int] = {}
+        counts: dict[str, int] = {}
+        for line in dump.stdout.splitlines():
+            name, _, rest = line.partition(" ")
+            words = dict(w.split("=", 1) for w in rest.split() if "=" in w)
+            if name == "config_stepper":
+                pins[int(words["oid"])] = words["step_pin"]
+            elif name == "set_next_step_dir":
+                direction[int(words["oid"])] = 1 if int(words["dir"]) else -1
+            elif name == "queue_step":
+                oid = int(words["oid"])
+                pin = pins.get(oid, str(oid))
+                counts[pin] = counts.get(pin, 0) + direction.get(oid, 1) * int(words["count"])
+        return counts

@@ -129,7 +129,7 @@ def extruders(settings: Settings, palette: PaletteLike, materials: Sequence[Mate
 
 
 def _mixing(settings: Settings) -> bool:
-    return settings.dialect in ("marlin-mixing", "marlin-mixing-m163")
+    return settings.dialect in ("marlin-mixing", "marlin-mixing-m163", "klipper-mixing")
 
 
 def _channels_listed(settings: Settings, materials: Sequence[Material]) -> int:
