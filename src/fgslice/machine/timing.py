@@ -352,11 +352,13 @@ class TimeModel:
             self._plan_pending()
 
     def _push(self, columns: tuple[np.ndarray, ...]) -> None:
+        """Keep moves (start, end, e, speed, stop-before columns) for planning."""
         if len(columns[2]):
             self._pending.append(columns)
             self._pending_moves += len(columns[2])
 
     def _plan_pending(self) -> None:
+        """Plan the kept moves from rest to rest and add their time."""
         if not self._pending:
             return
         start, end, e, feed, stop = (np.concatenate(c) for c in zip(*self._pending))
