@@ -10,11 +10,12 @@ does not implement. Needs, from the environment:
 - ``FGSLICE_KLIPPER``: a Klipper source tree (``klippy/klippy.py``); the module is skipped
   when it is unset;
 - ``FGSLICE_KLIPPER_PYTHON``: a Python with Klipper's ``scripts/klippy-requirements.txt``;
-- ``FGSLICE_KLIPPER_DICT``: the data dictionary of a Linux-process MCU build (default
-  ``$FGSLICE_KLIPPER/out/klipper.dict``), whose pin names (``gpioN``, ``analogN``) the
-  printer configs use.
+- ``FGSLICE_KLIPPER_DICT``: the data dictionary of a micro-controller build (default
+  ``$FGSLICE_KLIPPER/out/klipper.dict``; an atmega2560 or a Linux-process build), whose
+  pin names the printer configs use.
 
-Each case's ``printer.cfg`` is a cartesian printer written from the fgslice profile: axes
+Each case's ``printer.cfg`` (:func:`fgslice.machine.klipper.printer_cfg`) is a cartesian
+printer written from the fgslice profile, its motion limits included: axes
 of ``bed_x`` x ``bed_y`` x ``max_z`` homed at 0, ``travel_speed`` and ``z_speed`` as the
 velocity limits, the profile's nozzle and filament diameters (so Klipper's own defaults of
 ``max_extrude_cross_section`` = 4 d^2 and ``max_extrude_only_distance`` = 50 mm apply),
@@ -28,6 +29,10 @@ and raise an error otherwise; Klipper has no ``M42`` either, so the template dia
 reads no temperatures: it never refuses an extrusion as too cold and ``M109``/``M190``
 return at once (``verify_gcode`` checks the heating order).
 
+The print time Klipper plans for a file matches fgslice's estimate (the time model of
+:mod:`fgslice.machine.timing`) within 3 %, with the profile's Marlin planner and with
+Klipper's own.
+
 Klipper's batch mode plans about 10,000 lines a second, so the larger examples are sliced
 with settings that keep their files under 100,000 lines (palette.vcad's strategy 2 with
 rectilinear fill, cylinder_z_gradient.vcad with strategy 1 at 0.3 mm layers). Checked with
@@ -38,18 +43,23 @@ files (docs/gcode.md, "Checked against Klipper").
 from __future__ import annotations
 
 import fcntl
-import itertools
 import os
 import re
 import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from fgslice.design import api
 from fgslice.design.language import load_design
+from fgslice.errors import FgsliceError
+from fgslice.machine.gcode_reader import read_gcode
+from fgslice.machine.klipper import MIX_LETTERS, KlipperBatch, mcu_pins, printer_cfg
 from fgslice.pipeline import slice_to_gcode
 from fgslice.settings import Settings, load_settings
+from fgslice.slicing.palette import Palette
 
 ROOT = Path(__file__).resolve().parents[1]
 KLIPPER = os.environ.get("FGSLICE_KLIPPER", "")
@@ -60,18 +70,6 @@ pytestmark = [
 ]
 
 TIMEOUT_S = 300
-CONFIG_END = "======================="
-PROBLEMS = re.compile(
-    r"Unknown command|Move out of range|Extrude below minimum temp|Extrude only move too long"
-    r"|Move exceeds maximum extrusion|error|shutdown|!!", re.IGNORECASE)
-MIX_CHANNELS = "ABCDHI"
-
-
-@dataclass(frozen=True)
-class Klipper:
-    python: Path
-    klippy: Path
-    dictionary: Path
 
 
 @dataclass(frozen=True)
@@ -83,14 +81,12 @@ class Run:
 
 
 @pytest.fixture(scope="session")
-def klipper(tmp_path_factory) -> Klipper:
+def klipper(tmp_path_factory) -> KlipperBatch:
     """Klipper from the environment, its C helper built once for all test processes."""
-    root = Path(KLIPPER)
-    found = Klipper(Path(os.environ.get("FGSLICE_KLIPPER_PYTHON", "")), root / "klippy" / "klippy.py",
-                    Path(os.environ.get("FGSLICE_KLIPPER_DICT", root / "out" / "klipper.dict")))
-    missing = [f"{name} '{path}'" for name, path in vars(found).items() if not path.is_file()]
-    if missing:
-        pytest.fail(f"FGSLICE_KLIPPER={KLIPPER}: no {', no '.join(missing)} (see docs/gcode.md)")
+    try:
+        found = KlipperBatch.from_environment()
+    except FgsliceError as exc:
+        pytest.fail(str(exc))
     with open(tmp_path_factory.getbasetemp().parent / "klipper-chelper.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         built = subprocess.run([str(found.python), "-c", "import chelper; chelper.get_ffi()"],
@@ -100,98 +96,15 @@ def klipper(tmp_path_factory) -> Klipper:
     return found
 
 
-def _mixing_macros(settings: Settings) -> str:
-    channels = list(MIX_CHANNELS[:settings.channels])
-    zeros = [0.0] * settings.channels
-    return f"""
-[gcode_macro M165]
-gcode:
-  {{% set mix = namespace(sum=0) %}}
-  {{% for key, value in params.items() if key != "M" %}}
-    {{% if key not in {channels} or value|float < 0 or value|float > 1 %}}
-      {{action_raise_error("M165 %s%s: no such channel or factor" % (key, value))}}
-    {{% endif %}}
-    {{% set mix.sum = mix.sum + value|float %}}
-  {{% endfor %}}
-  {{% if (mix.sum - 1)|abs > 0.002 %}}
-    {{action_raise_error("M165 %s: factors do not sum to 1" % rawparams)}}
-  {{% endif %}}
-
-[gcode_macro M163]
-variable_mix: {zeros}
-gcode:
-  {{% set i = params.S|int %}}
-  {{% set p = params.P|float %}}
-  {{% if i < 0 or i >= mix|length or p < 0 or p > 1 %}}
-    {{action_raise_error("M163 %s: no such channel or factor" % rawparams)}}
-  {{% endif %}}
-  SET_GCODE_VARIABLE MACRO=M163 VARIABLE=mix VALUE=[{{(mix[:i] + [p] + mix[i + 1:])|join(',')}}]
-
-[gcode_macro M164]
-gcode:
-  {{% set mix = printer["gcode_macro M163"].mix %}}
-  {{% if params.S|int != 0 or (mix|sum - 1)|abs > 0.002 %}}
-    {{action_raise_error("M164 %s: mix %s" % (rawparams, mix))}}
-  {{% endif %}}
-"""
-
-
-def printer_cfg(settings: Settings) -> str:
-    """A Klipper config for the machine of ``settings`` on the Linux-process MCU's pins."""
-    gpio = (f"gpio{n}" for n in itertools.count())
-    pin = gpio.__next__
-    sections = [
-        "[mcu]\nserial: /tmp/klipper_host_mcu\n",
-        f"[printer]\nkinematics: cartesian\nmax_velocity: {settings.travel_speed}\nmax_accel: 3000\n"
-        f"max_z_velocity: {settings.z_speed}\nmax_z_accel: 100\n",
-    ]
-    for axis, length, rotation in (("x", settings.bed_x, 40), ("y", settings.bed_y, 40), ("z", settings.max_z, 8)):
-        sections.append(
-            f"[stepper_{axis}]\nstep_pin: {pin()}\ndir_pin: {pin()}\nenable_pin: !{pin()}\nmicrosteps: 16\n"
-            f"rotation_distance: {rotation}\nendstop_pin: ^{pin()}\nposition_endstop: 0\nposition_max: {length}\n"
-            "homing_speed: 50\n")
-    tools = settings.tool_count if settings.dialect == "toolchanger" else 1
-    for tool in range(tools):
-        sections.append(
-            f"[extruder{tool or ''}]\nstep_pin: {pin()}\ndir_pin: {pin()}\nenable_pin: !{pin()}\nmicrosteps: 16\n"
-            f"rotation_distance: 33.5\nnozzle_diameter: {settings.nozzle_diameter}\n"
-            f"filament_diameter: {settings.filament_diameter}\nheater_pin: {pin()}\n"
-            f"sensor_type: EPCOS 100K B57560G104F\nsensor_pin: analog{tool + 1}\ncontrol: pid\npid_Kp: 22.2\n"
-            f"pid_Ki: 1.08\npid_Kd: 114\nmin_temp: 0\nmax_temp: {settings.max_nozzle_temperature}\n"
-            f"min_extrude_temp: {settings.min_extrude_temperature}\n")
-    if settings.dialect == "toolchanger":
-        sections += [f"[gcode_macro T{tool}]\ngcode: ACTIVATE_EXTRUDER EXTRUDER=extruder{tool or ''}\n"
-                     for tool in range(tools)]
-    sections += [
-        f"[heater_bed]\nheater_pin: {pin()}\nsensor_type: EPCOS 100K B57560G104F\nsensor_pin: analog0\n"
-        f"control: watermark\nmin_temp: 0\nmax_temp: {settings.max_bed_temperature}\n",
-        f"[fan]\npin: {pin()}\n",
-    ]
-    if settings.dialect in ("marlin-mixing", "marlin-mixing-m163"):
-        sections.append(_mixing_macros(settings))
-    outputs = sorted(set(re.findall(r"M42 P(\d+)", "\n".join((settings.state_template, settings.start_gcode,
-                                                               settings.end_gcode)))), key=int)
-    sections += [f"[output_pin p{n}]\npin: {pin()}\npwm: True\n" for n in outputs]
-    if outputs:
-        sections.append("[gcode_macro M42]\ngcode: SET_PIN PIN=p{params.P|int} VALUE={params.S|float / 255}\n")
-    return "\n".join(sections)
-
-
-def run_klippy(klipper: Klipper, settings: Settings, gcode: Path, folder: Path) -> Run:
+def run_klippy(klipper: KlipperBatch, settings: Settings, gcode: Path, folder: Path) -> Run:
     """Run ``gcode`` through Klipper's batch mode on the printer of ``settings``."""
-    config, log, serial = folder / "printer.cfg", folder / "klippy.log", folder / "out.serial"
-    config.write_text(printer_cfg(settings), encoding="utf-8")
     try:
-        done = subprocess.run(
-            [str(klipper.python), str(klipper.klippy), str(config), "-i", str(gcode), "-o", str(serial),
-             "-d", str(klipper.dictionary), "-l", str(log)],
-            capture_output=True, text=True, timeout=TIMEOUT_S)
+        run = klipper.run(klipper.config(settings), gcode, folder)
     except subprocess.TimeoutExpired:
+        log = folder / "klippy.log"
         text = log.read_text(errors="replace") if log.exists() else ""
-        pytest.fail(f"klippy did not finish in {TIMEOUT_S} s (a config error keeps it waiting); log:\n{text[-4000:]}")
-    after_config = log.read_text(errors="replace").rpartition(CONFIG_END)[2] + done.stdout + done.stderr
-    problems = [line for line in after_config.splitlines() if PROBLEMS.search(line)]
-    return Run(done.returncode, problems, after_config, serial.stat().st_size if serial.exists() else 0)
+        pytest.fail(f"klippy did not finish (a config error keeps it waiting); log:\n{text[-4000:]}")
+    return Run(run.returncode, run.problems, run.log, run.serial.stat().st_size if run.serial.exists() else 0)
 
 
 CASES = [
@@ -203,6 +116,9 @@ CASES = [
     ("temperature_gradient.vcad", "toolchanger", {"colors": "4"}),
     ("cylinder_z_gradient.vcad", "foam-tpu", {"strategy": "1", "layer_height": "0.3"}),
     ("dogbone.vcad", "template-diw", {}),
+    ("dogbone.vcad", "klipper-diw", {}),
+    ("temperature_gradient.vcad", "klipper-mixing", {}),
+    ("palette.vcad", "klipper-mixing", {"strategy": "2", "fill_pattern": "rectilinear", "channels": "3"}),
 ]
 
 
@@ -233,3 +149,46 @@ def test_klipper_reports_what_it_rejects(klipper, tmp_path, lines, message):
     gcode.write_text(f"G28\nG90\nM83\nG1 Z1 F600\n{lines.format(x=settings.bed_x + 1)}\n", encoding="utf-8")
     run = run_klippy(klipper, settings, gcode, tmp_path)
     assert any(message in line for line in run.problems), run.log
+
+
+@pytest.mark.parametrize("planner", ["marlin", "klipper"])
+def test_klipper_plans_the_estimated_time(klipper, tmp_path, planner):
+    settings = load_settings("marlin-mixing", {"motion_planner": planner})
+    gcode = tmp_path / "part.gcode"
+    stats = slice_to_gcode(load_design(ROOT / "examples" / "fan_gradient.vcad"), settings, gcode, jobs=1).stats
+    planned = klipper.print_time(klipper.config(settings), gcode, tmp_path)
+    assert abs(stats["estimated_time_s"] / planned - 1) < 0.03, (stats["estimated_time_s"], planned)
+
+
+def test_klipper_mixing_feeds_every_channel_its_share(klipper, tmp_path):
+    """Each channel's steps in Klipper's output, times its rotation distance, are the
+    filament the mixture asks of it: the sum over moves of E times the channel's fraction
+    in the move's state (a third channel the design leaves empty, and the pure colors of
+    an 'ends' palette, unsync channels). The design: a cylinder graded blue to yellow
+    along z."""
+    settings = load_settings("klipper-mixing", {"channels": "3", "palette": "ends", "colors": "5"})
+    gcode = tmp_path / "part.gcode"
+    design = api.design(api.fgrade(["z/6", "1-z/6"], ["blue", "yellow"], api.translate((0, 0, 3), api.cylinder(10, 6))))
+    slice_to_gcode(design, settings, gcode, jobs=1)
+    assert "MOTION_QUEUE=\n" in gcode.read_text(encoding="utf-8")
+    digital, analog = mcu_pins(klipper.dictionary)
+    config = printer_cfg(settings, digital, analog)
+    run = klipper.run(config, gcode, tmp_path)
+    assert run.returncode == 0 and not run.problems, run.log
+    steps = klipper.step_counts(run.serial)
+    program = read_gcode(gcode)
+    palette = Palette(2, settings.colors, settings.palette)
+    colors = program.color_of_moves()
+    share = np.ones((len(colors), settings.channels))  # before any state: every channel as configured
+    known = colors >= 0
+    share[known] = 0.0
+    share[known, :2] = palette.centers[colors[known]].round(4)
+    expected = share.T @ program.e
+    per_step = settings.mixing_rotation_distance / 3200  # 200 full steps x 16 microsteps
+    for i, want in enumerate(expected.tolist()):
+        pin = re.search(rf"\[extruder_stepper mix_{MIX_LETTERS[i].lower()}\]\nextruder: extruder\nstep_pin: (\w+)",
+                        config).group(1)
+        got = abs(steps.get(pin, 0)) * per_step
+        assert got == pytest.approx(want, rel=0.01, abs=0.05), (MIX_LETTERS[i], got, want)
+    # the empty channel moved only before the first state (as configured), both others much more
+    assert expected[2] == pytest.approx(program.e[~known].sum()) and min(expected[:2]) > 10 * abs(expected[2])

@@ -110,19 +110,33 @@ def test_bed_extruders_and_temperatures_are_the_prints(sliced):
     assert values["filament_type"] == "PLA;PLA;PLA;PLA"
 
 
-def test_a_mixing_hotend_has_one_extruder_per_channel(sliced):
-    _, text, _, settings = sliced["marlin-mixing"]
+def test_a_mixing_hotend_lists_the_channels_of_the_designs_materials(sliced):
+    _, text, stats, settings = sliced["marlin-mixing"]
     values = block(text)
     blue, yellow = (builtin_library().get(n).rgba for n in ("blue", "yellow"))
-    assert values["extruder_colour"].split(";") == [hex_colour(blue), hex_colour(yellow), "#9E9E9E"]
-    assert values["filament_settings_id"] == "blue;yellow;unused"
-    assert len(values["nozzle_diameter"].split(",")) == settings.channels == 3
-    assert values["temperature"] == "210,210,210"
+    assert settings.channels == 3  # the third channel feeds nothing: no phantom filament
+    assert values["extruder_colour"].split(";") == [hex_colour(blue), hex_colour(yellow)]
+    assert values["filament_settings_id"] == "blue;yellow"
+    assert len(values["nozzle_diameter"].split(",")) == 2
+    assert values["temperature"] == "210,210"
+
+
+def test_the_weight_of_each_tool_adds_up_to_the_total(sliced):
+    for profile, (path, text, stats, settings) in sliced.items():
+        footer = read_footer(path)
+        weights = [float(w) for w in footer["filament used [g]"].split(",")]
+        assert len(weights) == len(block(text)["nozzle_diameter"].split(",")), profile
+        assert float(footer["total filament used [g]"]) == pytest.approx(stats["filament_g"], abs=0.006)
+        assert sum(weights) == pytest.approx(stats["filament_g"], abs=0.006 * len(weights)), profile
+    # blue to yellow along z: both channels of the mixing hotend carry about half
+    weights = [float(w) for w in read_footer(sliced["marlin-mixing"][0])["filament used [g]"].split(",")]
+    assert weights[0] == pytest.approx(weights[1], rel=0.25)
 
 
 def test_foam_is_one_filament_of_its_type(sliced):
     values = block(sliced["foam-tpu"][1])
     assert values["filament_type"] == "FLEX" and values["nozzle_diameter"] == "0.4"
+    assert values["filament_settings_id"] == '"varioShore TPU (foaming)"'
     assert values["bed_shape"] == "0x0,250x0,250x210,0x210"
 
 
@@ -203,15 +217,8 @@ def test_moonraker_patterns_find_the_fields(sliced):
 def test_moonraker_metadata_script_reads_the_fields(sliced, tmp_path):
     """Runs Moonraker's metadata.py itself when FGSLICE_MOONRAKER_METADATA names it (it needs
     only Python and Pillow)."""
-    script = os.environ.get("FGSLICE_MOONRAKER_METADATA")
-    if not script or not os.path.isfile(script):
-        pytest.skip("set FGSLICE_MOONRAKER_METADATA to Moonraker's file_manager/metadata.py")
     path, text, stats, settings = sliced["toolchanger"]
-    copy = tmp_path / path.name
-    copy.write_text(text)
-    run = subprocess.run([sys.executable, script, "-f", copy.name, "-p", str(tmp_path)], capture_output=True,
-                         text=True, timeout=120, check=True)
-    meta = json.loads(run.stdout)["metadata"]
+    meta = moonraker_metadata(path, tmp_path)
     values = block(text)
     assert meta["slicer"] == "fgslice"
     assert meta["layer_height"] == meta["first_layer_height"] == settings.layer_height
@@ -222,3 +229,51 @@ def test_moonraker_metadata_script_reads_the_fields(sliced, tmp_path):
     assert meta["object_height"] == pytest.approx(4.0)  # the cylinder's, not the end G-code's lift
     assert meta["filament_change_count"] == stats["state_changes"]
     assert meta["estimated_time"] == pytest.approx(stats["estimated_time_s"], abs=1)
+
+
+def listed(value: str) -> list[str]:
+    """A Moonraker list field: one item as itself, more as a JSON list."""
+    return json.loads(value) if value.startswith("[") else [value]
+
+
+def moonraker_metadata(path, folder) -> dict:
+    script = os.environ.get("FGSLICE_MOONRAKER_METADATA")
+    if not script or not os.path.isfile(script):
+        pytest.skip("set FGSLICE_MOONRAKER_METADATA to Moonraker's file_manager/metadata.py")
+    copy = folder / path.name
+    copy.write_bytes(path.read_bytes())
+    run = subprocess.run([sys.executable, script, "-f", copy.name, "-p", str(folder)], capture_output=True,
+                         text=True, timeout=120, check=True)
+    assert run.stdout.startswith("{"), run.stdout + run.stderr
+    return json.loads(run.stdout)["metadata"]
+
+
+@pytest.mark.parametrize("profile, sets", [
+    ("marlin-mixing", {}), ("marlin-mixing-m163", {"channels": "3"}), ("toolchanger", {"colors": "3"}),
+    ("foam-lwpla", {}), ("foam-tpu", {}), ("template-diw", {}),
+])
+@pytest.mark.parametrize("materials", [1, 2])
+def test_moonraker_reads_weights_and_temperatures_for_every_profile(tmp_path, profile, sets, materials):
+    """Weight in total and per tool, temperatures (in a file far under Moonraker's 1 MiB
+    window, where the header is read too), filament type and name; no filament for a
+    channel the design leaves empty."""
+    if materials == 1:
+        design = api.design(api.translate((0, 0, 2), api.cylinder(6, 4)))
+    else:
+        design = api.design(api.fgrade(["z/4", "1-z/4"], ["blue", "yellow"],
+                                       api.translate((0, 0, 2), api.cylinder(6, 4))))
+    settings = load_settings(profile, {"skirt_loops": "0", "thumbnails": "", **sets})
+    path = tmp_path / "part.gcode"
+    stats = slice_to_gcode(design, settings, path, jobs=1).stats
+    meta = moonraker_metadata(path, tmp_path)
+    tools = 3 if profile == "toolchanger" and materials == 2 else (
+        materials if settings.dialect.startswith("marlin-mixing") else 1)
+    assert meta["filament_weight_total"] == pytest.approx(stats["filament_g"], abs=0.006)
+    assert len(meta["filament_weights"]) == tools
+    assert sum(meta["filament_weights"]) == pytest.approx(stats["filament_g"], abs=0.006 * tools)
+    assert meta["filament_temps"] and all(t == round(settings.nozzle_temperature) for t in meta["filament_temps"])
+    assert listed(meta["filament_type"]) == [settings.host_filament_type] * tools
+    names = listed(meta["filament_name"])
+    assert "unused" not in names
+    if settings.host_filament_name:
+        assert names == [settings.host_filament_name]

@@ -15,6 +15,8 @@ def test_every_builtin_profile_loads_with_its_dialect():
         "foam-lwpla": "temperature",
         "foam-tpu": "temperature",
         "template-diw": "template",
+        "klipper-mixing": "klipper-mixing",
+        "klipper-diw": "template",
     }
     assert set(builtin_profiles()) == set(expected)
     for name, dialect in expected.items():

@@ -28,7 +28,7 @@ from msgspec import Meta
 
 from fgslice.errors import SettingsError, did_you_mean
 
-Dialect = Literal["marlin-mixing", "marlin-mixing-m163", "toolchanger", "temperature", "template"]
+Dialect = Literal["marlin-mixing", "marlin-mixing-m163", "klipper-mixing", "toolchanger", "temperature", "template"]
 
 
 class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=True):
@@ -39,12 +39,15 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     description: Annotated[str, Meta(description="one line about the machine")] = ""
     dialect: Annotated[Dialect, Meta(description="how a state change is written")] = "marlin-mixing"
     channels: Annotated[int, Meta(ge=1, le=6, description="mixing channels (A, B, C, ...) of a mixing hotend")] = 2
+    mixing_rotation_distance: Annotated[float, Meta(gt=0, le=1000, description="klipper-mixing: rotation_distance of every channel's [extruder_stepper] in printer.cfg, mm")] = 33.5
     tool_count: Annotated[int, Meta(ge=1, le=64, description="tools of a toolchanger (T0..Tn-1)")] = 5
     bed_x: Annotated[float, Meta(gt=0, le=5000, description="bed width, mm")] = 220.0
     bed_y: Annotated[float, Meta(gt=0, le=5000, description="bed depth, mm")] = 220.0
     max_z: Annotated[float, Meta(gt=0, le=5000, description="build height, mm")] = 250.0
     nozzle_diameter: Annotated[float, Meta(gt=0.05, le=5.0, description="nozzle bore, mm")] = 0.4
     filament_diameter: Annotated[float, Meta(gt=0.1, le=5.0, description="filament diameter, mm")] = 1.75
+    host_filament_type: Annotated[str, Meta(min_length=1, max_length=32, pattern=r"^[A-Za-z0-9_+-]+$", description="filament type hosts show (PrusaSlicer's filament_type: PLA, PETG, FLEX, ...)")] = "PLA"
+    host_filament_name: Annotated[str, Meta(max_length=200, description="name of the filament hosts show on one-extruder machines (temperature and template dialects); empty: the design's first material")] = ""
     filament_density: Annotated[float, Meta(gt=0.1, le=25.0, description="filament density for mass estimates, g/cm^3")] = 1.24
 
     # -- state of a color ---------------------------------------------------------
@@ -123,6 +126,15 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     travel_speed: Annotated[float, Meta(gt=0, le=2000, description="travel moves, mm/s")] = 150.0
     z_speed: Annotated[float, Meta(gt=0, le=500, description="Z moves, mm/s")] = 10.0
 
+    # -- motion (the time estimate: docs/gcode.md, "Print time") ----------------------
+    motion_planner: Annotated[Literal["klipper", "marlin"], Meta(description="firmware whose motion planner the time estimate follows: klipper (square_corner_velocity, minimum_cruise_ratio) or marlin (junction_deviation; classic jerk when it is 0)")] = "marlin"
+    acceleration: Annotated[float, Meta(gt=0, le=100000, description="printing and travel acceleration (Klipper's max_accel, Marlin's M204), mm/s^2")] = 3000.0
+    z_acceleration: Annotated[float, Meta(gt=0, le=100000, description="largest acceleration along Z (Klipper's max_z_accel, Marlin's Z max acceleration), mm/s^2")] = 100.0
+    retract_acceleration: Annotated[float | Literal["auto"], Meta(description="acceleration of retractions and other extrude-only moves, mm/s^2; 'auto': the firmware's default (Klipper: acceleration x 4 nozzle_diameter^2 / filament cross-section, Marlin: acceleration)")] = "auto"
+    square_corner_velocity: Annotated[float, Meta(ge=0, le=1000, description="Klipper: speed through a 90 degree corner, mm/s")] = 5.0
+    minimum_cruise_ratio: Annotated[float, Meta(ge=0, lt=1, description="Klipper: share of a short move that cruises (its planner's pseudo-acceleration is acceleration x (1 - ratio))")] = 0.5
+    junction_deviation: Annotated[float, Meta(ge=0, le=10, description="Marlin: junction deviation, mm; 0 for classic jerk")] = 0.013
+    jerk: Annotated[float, Meta(gt=0, le=1000, description="Marlin with junction_deviation = 0: classic jerk of X and Y, mm/s (Z 0.3, E 5)")] = 10.0
     # -- retraction ------------------------------------------------------------------
     retract_length: Annotated[float, Meta(ge=0, le=50, description="retraction length, mm of filament")] = 0.8
     retract_speed: Annotated[float, Meta(gt=0, le=500, description="retraction speed, mm/s")] = 35.0
@@ -175,6 +187,8 @@ class Settings(_Fields, kw_only=True, frozen=True, forbid_unknown_fields=True):
             )
         if self.lookahead_mm != "auto" and self.lookahead_mm < 0:
             raise ValueError("lookahead_mm must be >= 0 or 'auto'")
+        if self.retract_acceleration != "auto" and self.retract_acceleration <= 0:
+            raise ValueError("retract_acceleration must be > 0 or 'auto'")
         if self.purge_tolerance != "auto" and self.purge_tolerance <= 0:
             raise ValueError("purge_tolerance must be > 0 or 'auto'")
 

@@ -265,6 +265,6 @@ def calibration_palette(settings: Settings):
     """The palette a slice with these settings uses (materials = channels for mixing)."""
     from fgslice.slicing.palette import Palette
 
-    materials = settings.channels if settings.dialect.startswith("marlin-mixing") else 2
+    materials = settings.channels if settings.dialect.endswith(("-mixing", "-mixing-m163")) else 2
     size = settings.tool_count if settings.dialect == "toolchanger" else settings.colors
     return Palette(materials, size, settings.palette)

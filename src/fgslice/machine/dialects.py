@@ -9,6 +9,12 @@ recover the palette color whatever the commands are. One class per dialect:
   (E and F are taken by extrusion and feed rate).
 * ``marlin-mixing-m163``: ``M163 S<i> P<f_i>`` for every channel, then ``M164 S0``
   (commit the mix to virtual tool 0).
+* ``klipper-mixing``: a mixing hotend on stock Klipper, each channel an
+  ``[extruder_stepper mix_a]``.. synced to the extruder's motion: a channel of fraction
+  ``f > 0`` is synced (``SYNC_EXTRUDER_MOTION EXTRUDER=mix_a MOTION_QUEUE=extruder``) at
+  the rotation distance ``mixing_rotation_distance / f`` (``SET_EXTRUDER_ROTATION_DISTANCE``),
+  so it feeds ``f`` mm per mm of E; a channel of fraction 0 is unsynced
+  (``MOTION_QUEUE=`` empty). Fractions are rounded to 4 decimals as ``M165``'s.
 * ``toolchanger``: ``T<n>`` with ``n`` the color index; every tool the palette uses is
   heated (``M104 T<i>``, then ``M109 T<i>``) after the start G-code.
 * ``temperature``: ``M104 S<t>`` then ``M221 S<flow>``; ``t`` is linear in the first
@@ -135,6 +141,28 @@ class MarlinMixingM163(Dialect):
         return [f"M163 S{i} P{f:.4f}" for i, f in enumerate(factors)] + ["M164 S0"]
 
 
+class KlipperMixing(Dialect):
+    """Klipper's extruder steppers, synced to the extruder and scaled to the mix."""
+
+    name = "klipper-mixing"
+
+    def _check(self) -> None:
+        _check_channels(self.settings, self.palette)
+
+    def _commands(self, color: int) -> list[str]:
+        factors = np.round(_channel_factors(self.palette.centers[color], self.settings.channels), 4)
+        lines = []
+        for i, f in enumerate(factors.tolist()):
+            stepper = f"EXTRUDER=mix_{MIX_LETTERS[i].lower()}"
+            if f <= 0:
+                lines.append(f"SYNC_EXTRUDER_MOTION {stepper} MOTION_QUEUE=")
+                continue
+            distance = f"{self.settings.mixing_rotation_distance / f:.6f}".rstrip("0").rstrip(".")
+            lines += [f"SYNC_EXTRUDER_MOTION {stepper} MOTION_QUEUE=extruder",
+                      f"SET_EXTRUDER_ROTATION_DISTANCE {stepper} DISTANCE={distance}"]
+        return lines
+
+
 class Toolchanger(Dialect):
     """``T<n>``: one tool per color."""
 
@@ -196,7 +224,7 @@ class Template(Dialect):
 
 
 DIALECTS: dict[str, type[Dialect]] = {
-    cls.name: cls for cls in (MarlinMixing, MarlinMixingM163, Toolchanger, Temperature, Template)
+    cls.name: cls for cls in (MarlinMixing, MarlinMixingM163, KlipperMixing, Toolchanger, Temperature, Template)
 }
 
 

@@ -34,8 +34,9 @@ texts. Paths without a prepared body (purge lines, paths split by look-ahead, pl
 built elsewhere) are formatted by the writer the same way.
 
 The statistics returned by :meth:`GcodeWriter.finish` are documented in ``docs/gcode.md``.
-The time estimate is the sum of move lengths divided by their feed rates (no
-acceleration), plus the dialect's fixed ``change_time_s`` per state change.
+The time estimate is :class:`~fgslice.machine.timing.TimeModel`'s: the written text is
+planned as the firmware plans it (acceleration, junction speeds), plus the dialect's fixed
+``change_time_s`` per state change.
 """
 
 from __future__ import annotations
@@ -57,8 +58,9 @@ from fgslice.design.base import Material
 from fgslice.machine.coasting import coast, wipe
 from fgslice.machine.dialects import PLACEHOLDER, Dialect, PaletteLike
 from fgslice.machine.grading import GRADING_SETTINGS, UNGRADED
-from fgslice.machine.prusa_config import footer_block
+from fgslice.machine.prusa_config import footer_block, tool_volumes
 from fgslice.machine.thumbnails import thumbnail_block
+from fgslice.machine.timing import TimeModel
 from fgslice.planning.plan import EXTRA, ROLE_CODE, ROLES, STATE, LayerPlan, Prepared, SetState
 from fgslice.settings import Settings
 from fgslice.slicing.states import STATE_SETTINGS, StatePalette, material_colors
@@ -254,8 +256,6 @@ class PathBodies:
         low, high: ``(n, 2)`` corners of the box around the path's written points, mm.
         e: ``(n,)`` filament written, mm.
         length: ``(n,)`` XY length of the written moves, mm.
-        paced: ``(n,)`` with a speed attribute: the length each path would have at 100%
-            speed for the time its moves take (``sum L / (speed / 100)``), mm; else None.
         fan: ``(n, 2)`` with a fan attribute: the ``M106 S`` value (0-255) a path starts
             with (the writer commands it when the fan is not there yet) and ends with;
             -1 where the path leaves the fan alone; else None.
@@ -271,7 +271,6 @@ class PathBodies:
     high: np.ndarray
     e: np.ndarray
     length: np.ndarray
-    paced: np.ndarray | None = None
     fan: np.ndarray | None = None
     commanded: dict[str, np.ndarray] | None = None
 
@@ -388,7 +387,7 @@ def format_packed(
     e = np.diff(rounded, prepend=0.0)
     printed = n_moves > 0
     e[row_start[:-1][printed]] = rounded[row_start[:-1][printed]]
-    paced = fan = commanded = None
+    fan = commanded = None
     if grade is None or not len(moves):
         text, offsets = format_moves(ends[:, 0], ends[:, 1], e)
     else:
@@ -396,7 +395,6 @@ def format_packed(
         if "speed" in values or not ROLE_SPEEDS.keys().isdisjoint(values):
             feed = _graded_feeds(grade, move_path, values)
             fields.append((" F", np.round(feed * 60.0, 1), 1))
-            paced = np.bincount(move_path, weights=lengths * grade.feeds[move_path] / feed, minlength=n)
         blocks, line_lengths = _line_blocks(fields, "\n")
         if "fan" in values:
             pwm = np.rint(values["fan"] * 2.55).astype(np.int64)
@@ -435,7 +433,6 @@ def format_packed(
         high=high,
         e=np.bincount(move_path, weights=e, minlength=n),
         length=np.bincount(move_path, weights=lengths, minlength=n),
-        paced=paced,
         fan=fan,
         commanded=commanded,
     )
@@ -619,7 +616,7 @@ class GcodeWriter:
         self._e_written = 0.0
         self._stats_layers = 0
         self._travel_mm = 0.0
-        self._time_s = 0.0
+        self._timing = TimeModel(settings)
         self._state_changes = 0
         self._tool_changes = 0  # changes of the material color (of the tool on a toolchanger)
         self._retractions = 0
@@ -638,11 +635,15 @@ class GcodeWriter:
     def recorded_settings(self) -> dict[str, object]:
         """The settings the file records (header and settings block), by name: all of them
         but the attribute-grading ones when the design grades no instantaneous attribute,
-        and ``filament_colors`` when it is empty."""
+        and ``filament_colors`` when it is empty; ``nozzle_temperature`` without a needless
+        ``.0``."""
         unused = (() if self.grading is not None else GRADING_SETTINGS) + (
             () if isinstance(self.palette, StatePalette) else STATE_SETTINGS) + (
             () if self.settings.filament_colors else ("filament_colors",))
-        return {k: v for k, v in self.settings.as_dict().items() if k not in unused}
+        recorded = {k: v for k, v in self.settings.as_dict().items() if k not in unused}
+        # Moonraker reads the first '; nozzle_temperature' (the header's, in a file under 1 MiB) as integers
+        recorded["nozzle_temperature"] = fmt(self.settings.nozzle_temperature, 1)
+        return recorded
 
     def write_header(self) -> None:
         """The first line, thumbnails, comments, settings, palette and start G-code."""
@@ -659,7 +660,9 @@ class GcodeWriter:
         ]
         lines += ["", fill_placeholders(s.start_gcode, self._temperature_values(), "start_gcode")]
         lines += self.dialect.start_commands() + ["M83", "M107", ""]
-        self.out.write(text + "\n".join(lines))
+        body = "\n".join(lines)
+        self._timing.feed(body)
+        self.out.write(text + body)
 
     def _temperature_values(self) -> dict[str, str]:
         return {
@@ -677,9 +680,7 @@ class GcodeWriter:
             parts.append(self._retract_line())
             self._retracted = True
             self._retractions += 1
-            self._time_s += s.retract_length / s.retract_speed
         parts.append(f"G1 Z{fmt(plan.z, 3)} F{fmt(s.z_speed * 60, 1)}\n")
-        self._time_s += abs(plan.z - self._z) / s.z_speed
         self._z = plan.z
         if not self._fan_on and plan.index >= s.fan_off_layers and s.fan_speed > 0:
             self._fan_on = True
@@ -700,7 +701,9 @@ class GcodeWriter:
             if self.dialect.moves_head:
                 self._pos = None
         self._stats_layers += 1
-        self.out.write("".join(parts))
+        text = "".join(parts)
+        self._timing.feed(text)
+        self.out.write(text)
 
     def _state_changes_before(self, layer: "_LayerPaths") -> tuple[np.ndarray, list[str], np.ndarray]:
         """The state changes of the layer that change the state: the path each one is due
@@ -736,7 +739,7 @@ class GcodeWriter:
         if previous is None or material_colors(self.palette, (previous,)) != material_colors(self.palette, (color,)):
             self._tool_changes += 1
         self._colors_used.add(color)
-        self._time_s += self.dialect.change_time(previous, color)
+        self._timing.add(self.dialect.change_time(previous, color))
         text = self._state_texts.get((previous, color))
         if text is None:
             text = self._state_texts[previous, color] = "\n".join(self.dialect.change_commands(previous, color)) + "\n"
@@ -892,12 +895,7 @@ class GcodeWriter:
             low_high[0] = min(low_high[0], float(np.nanmin(ranges[rows, 0], initial=np.inf)))
             low_high[1] = max(low_high[1], float(np.nanmax(ranges[rows, 1], initial=-np.inf)))
 
-        n_retract, n_hop = int(retract.sum()), int(hop.sum())
-        self._retractions += n_retract
-        self._time_s += (n_retract + int(retracted.sum())) * s.retract_length / s.retract_speed
-        self._time_s += n_hop * 2 * s.z_hop / s.z_speed
-        paced = bodies.length if bodies.paced is None else bodies.paced
-        self._time_s += float(dist.sum()) / s.travel_speed + float(np.sum(paced[rows] / feeds))
+        self._retractions += int(retract.sum())
         self._travel_mm += float(dist.sum())
         self._e_written += float(filament.sum())
         volume = filament * self.filament_area
@@ -988,15 +986,19 @@ class GcodeWriter:
         extruded = filament_mm * self.filament_area
         grams_per_mm3 = s.filament_density / 1000.0
         end = fill_placeholders(s.end_gcode, self._temperature_values(), "end_gcode")
+        self._timing.feed(end)
+        time_s = self._timing.finish()
         footer = [
             "",
             end,
             "",
             f"; filament used [mm] = {filament_mm:.2f}",
             f"; filament used [cm3] = {extruded / 1000.0:.2f}",
-            f"; filament used [g] = {extruded * grams_per_mm3:.2f}",
+            "; filament used [g] = " + ", ".join(
+                f"{v * grams_per_mm3:.2f}" for v in tool_volumes(s, self.palette, self.materials, self._volume_by_color)),
+            f"; total filament used [g] = {extruded * grams_per_mm3:.2f}",
             f"; state changes = {self._state_changes}",
-            f"; estimated printing time (normal mode) = {format_duration(self._time_s)}",
+            f"; estimated printing time (normal mode) = {format_duration(time_s)}",
             *footer_block(s, self.palette, self.materials, version=fgslice_version(),
                           tool_changes=self._tool_changes, colors_used=sorted(self._colors_used),
                           recorded=self.recorded_settings()),
@@ -1022,7 +1024,7 @@ class GcodeWriter:
             "travel_mm": self._travel_mm,
             "state_changes": self._state_changes,
             "retractions": self._retractions,
-            "estimated_time_s": self._time_s,
+            "estimated_time_s": time_s,
             "extrusion_bbox": bbox,
             "purge_mm3": self._purge_mm3,
             "purge_g": self._purge_mm3 * grams_per_mm3,
@@ -1034,22 +1036,20 @@ class GcodeWriter:
 
 
 def _graded_rows(bodies: PathBodies) -> list[list]:
-    """The graded columns of ``bodies`` as one list per column, a row per path: paced
-    length, fan ``(start, end)``, then each commanded range (for the writer's cache)."""
+    """The graded columns of ``bodies`` as one list per column, a row per path: fan
+    ``(start, end)``, then each commanded range (for the writer's cache)."""
     n = len(bodies.e)
-    paced = bodies.length if bodies.paced is None else bodies.paced
     fan = np.full((n, 2), -1) if bodies.fan is None else bodies.fan
-    return [paced.tolist(), fan.tolist(), [dict(zip(bodies.commanded or {}, r))
-                                           for r in zip(*(v.tolist() for v in (bodies.commanded or {}).values()))]
+    return [fan.tolist(), [dict(zip(bodies.commanded or {}, r))
+                           for r in zip(*(v.tolist() for v in (bodies.commanded or {}).values()))]
             if bodies.commanded else [{}] * n]
 
 
 def _join_graded(joined: PathBodies, old: PathBodies, extra: list[tuple]) -> None:
     """Set the graded columns of ``joined``: ``old``'s rows, then the rows ``extra``
-    (paced lengths, fans, commanded ranges: the columns of :func:`_graded_rows`)."""
-    paced, fan, commanded = extra
+    (fans, commanded ranges: the columns of :func:`_graded_rows`)."""
+    fan, commanded = extra
     n = len(old.e)
-    joined.paced = np.concatenate([old.length if old.paced is None else old.paced, paced])
     joined.fan = np.concatenate([np.full((n, 2), -1) if old.fan is None else old.fan,
                                  np.array(fan, dtype=np.int64).reshape(-1, 2)])
     names = set(old.commanded or {}).union(*map(set, commanded))

@@ -14,9 +14,9 @@ E), ``M82``/``M83`` (absolute/relative E), ``G92`` (set position, including ``G9
 ``T<n>``, ``M165``, ``M163``/``M164``, ``M104``/``M109`` (S, R, T), ``M140``/``M190``,
 ``M221``, ``M106``/``M107``, ``M42``, and the comments ``;LAYER_CHANGE`` (or Cura's
 ``;LAYER:<n>``), ``;Z:``, ``;TYPE:``, ``;WIDTH:``, ``;STATE:<n>``. Other commands are
-kept as line numbers only. A number that is not a finite number (``X1e999``, ``Ynan``,
-``Eabc``) becomes a :class:`Fault` and the word is ignored; the reader never raises on
-such content. A file that is not G-code text (binary, empty, no moves) is a
+kept as line numbers only (Klipper's extended commands ``NAME KEY=VALUE`` among them).
+A number that is not a finite number (``X1e999``, ``Ynan``, ``Eabc``) becomes a
+:class:`Fault` and the word is ignored; the reader never raises on such content. A file that is not G-code text (binary, empty, no moves) is a
 :class:`~fgslice.errors.GcodeError`.
 """
 
@@ -371,6 +371,9 @@ class _Events:
         if not words:
             return
         cmd = words[0].upper()
+        if "=" in raw[:semi] if semi >= 0 else "=" in raw:  # Klipper's extended commands: NAME KEY=VALUE
+            self.unknown.append(num)
+            return
         p = self._params(words, num)
         if cmd[0] == "T" and cmd[1:].isdecimal():
             self.tool = int(cmd[1:])
@@ -907,3 +910,26 @@ def read_gcode(path_or_text: str | os.PathLike | bytes, *, chunk_lines: int = CH
     joined = {name: np.concatenate(parts.pop(name)) for name in _ARRAY_FIELDS}
     return GcodeProgram(**joined, **events, roles=last.roles, states=last.states, layer_z=last.layer_z,
                         line_count=last.line_count)
+
+
+class GcodeStream:
+    """Reads G-code handed over piece by piece, each piece whole lines (the writer's text
+    as it is written, say): :meth:`read` returns the piece's moves and events as a
+    :class:`GcodeProgram`, with line numbers and machine state carried over from the
+    pieces before, as :func:`iter_gcode` does for the chunks of a file."""
+
+    def __init__(self) -> None:
+        self._reader = _Reader()
+
+    @property
+    def line_count(self) -> int:
+        """Lines read so far."""
+        return self._reader.line_count
+
+    def read(self, text: str | bytes) -> GcodeProgram:
+        """The moves and events of ``text``: whole lines, at least one (a missing last
+        newline is taken as there)."""
+        data = text.encode("utf-8") if isinstance(text, str) else text
+        if not data.endswith(b"\n"):
+            data += b"\n"
+        return self._reader.chunk(data, np.flatnonzero(np.frombuffer(data, dtype=np.uint8) == 10))

@@ -35,11 +35,14 @@ What the readers need (from their sources):
 
 Extruders: one per palette color on a toolchanger (tool ``n`` prints color ``n``, drawn
 in the color of its mix), one per channel on a mixing hotend (channel ``i`` feeds
-material ``i``; channels beyond the design's materials are gray and named ``unused``),
-else one. Colors are the materials' display colors mixed by
+material ``i``, for the design's materials only), else one. Colors are the materials' display colors mixed by
 :func:`fgslice.colors.mix_rgba`; without known materials (the calibration object) they
-are the preview's default ones. ``filament_type`` is PLA (the filament of fgslice's default density and
-temperatures), FLEX for the TPU flow model.
+are the preview's default ones. ``filament_type`` is the profile's
+``host_filament_type`` (PLA by default, FLEX on foam-tpu); one-extruder machines name their filament ``host_filament_name`` when the
+profile sets one (the foam profiles: ``LW-PLA (foaming)``, ``varioShore TPU (foaming)``).
+:func:`tool_volumes` splits the extruded volume by extruder, for the footer's ``;
+filament used [g] = a, b, ...`` and ``; total filament used [g]`` (Moonraker's
+``filament_weights`` and ``filament_weight_total``).
 
 After PrusaSlicer's keys come fgslice's own settings under their names, as in the
 header. Where a setting's name is also a PrusaSlicer key (``center``, ``fill_pattern``,
@@ -105,8 +108,9 @@ def extruders(settings: Settings, palette: PaletteLike, materials: Sequence[Mate
     """``(colours, names)`` of PrusaSlicer's extruders: ``#RRGGBB`` and a filament name each.
 
     Toolchanger: tool ``n`` is palette color ``n``, colored by its mix and named by it
-    (``red 12.5% / blue 87.5%``). Mixing hotends: channel ``i`` is material ``i``. Other
-    dialects: one extruder of the first material.
+    (``red 12.5% / blue 87.5%``). Mixing hotends: channel ``i`` is material ``i``, for the
+    design's materials (every channel when they are not known). Other dialects: one
+    extruder of the first material, named ``host_filament_name`` when the profile sets one.
     """
     from fgslice.preview.colors import fraction_label
 
@@ -116,9 +120,44 @@ def extruders(settings: Settings, palette: PaletteLike, materials: Sequence[Mate
         rgba = mix_rgba(palette.centers, materials_rgba(used))
         names = [m.name for m in used]
         return [_hex(c) for c in rgba], [fraction_label(center, names) for center in palette.centers]
-    count = settings.channels if settings.dialect.startswith("marlin-mixing") else 1
+    count = _channels_listed(settings, materials) if _mixing(settings) else 1
     used = _materials(materials, count)
-    return [_hex(m.rgba) for m in used], [m.name for m in used]
+    names = [m.name for m in used]
+    if count == 1 and settings.host_filament_name:
+        names = [settings.host_filament_name]
+    return [_hex(m.rgba) for m in used], names
+
+
+def _mixing(settings: Settings) -> bool:
+    return settings.dialect in ("marlin-mixing", "marlin-mixing-m163", "klipper-mixing")
+
+
+def _channels_listed(settings: Settings, materials: Sequence[Material]) -> int:
+    """The mixing channels listed as extruders: the design's materials' (all without them)."""
+    return min(len(materials), settings.channels) if materials else settings.channels
+
+
+def tool_volumes(settings: Settings, palette: PaletteLike, materials: Sequence[Material],
+                 volume_by_color: dict[int, float]) -> list[float]:
+    """The extruded volume (mm³) of each of :func:`extruders`: by tool on a toolchanger
+    (the material color of each state), by channel on a mixing hotend (each state's volume
+    split by its mix), else all of it. Volume printed before any state was commanded
+    (color -1) counts for the first extruder."""
+    count = len(extruders(settings, palette, materials)[0])
+    out = np.zeros(count)
+    for color, volume in volume_by_color.items():
+        if color < 0:
+            out[0] += volume
+        elif settings.dialect == "toolchanger":
+            out[material_colors(palette, (color,))[0]] += volume
+        elif _mixing(settings):
+            mix = np.asarray(material_palette(palette).centers[material_colors(palette, (color,))[0]], dtype=float)
+            share = np.zeros(count)
+            share[: min(count, len(mix))] = mix[:count]
+            out += volume * share
+        else:
+            out[0] += volume
+    return out.tolist()
 
 
 def prusaslicer_keys(settings: Settings, palette: PaletteLike, materials: Sequence[Material]) -> dict[str, str]:
@@ -163,7 +202,7 @@ def prusaslicer_keys(settings: Settings, palette: PaletteLike, materials: Sequen
         "filament_density": each(_num(s.filament_density)),
         "filament_diameter": each(_num(s.filament_diameter)),
         "filament_settings_id": ";".join(_quoted(name) for name in names),
-        "filament_type": ";".join(["FLEX" if s.flow_model == "tpu" else "PLA"] * n),
+        "filament_type": ";".join([s.host_filament_type] * n),
         "fill_angle": _num(s.infill_angle),
         "fill_density": "100%" if dense else f"{_num(s.infill_density)}%",
         "fill_pattern": s.fill_pattern if dense else s.infill_pattern,

@@ -34,7 +34,7 @@ from fgslice.machine.flow import flow_percent
 from fgslice.settings import Settings
 from fgslice.slicing.states import StatePalette
 
-DIALECTS = ("marlin-mixing", "marlin-mixing-m163", "toolchanger")
+DIALECTS = ("marlin-mixing", "marlin-mixing-m163", "klipper-mixing", "toolchanger")
 """The dialects that can command the temperature as a state of its own."""
 
 
