@@ -227,15 +227,27 @@ def slice_volume(design, tmp_path, name):
     return slice_to_gcode(design, settings, tmp_path / f"{name}.gcode", jobs=1).stats["extruded_mm3"]
 
 
-@pytest.mark.parametrize("script", sorted(p.name for p in CATALOG.glob("*.py")))
-def test_the_metamaterials_catalog_slices_to_its_volume(script, tmp_path):
-    design = load_script(CATALOG / script)
+def layered_volume(design, dz):
     lo, hi = design.bounds()
-    dz = 0.3
     zs = np.arange(lo[2] + dz / 2, hi[2], dz)
-    volume = sum(s.area for s in design.sections(list(zs))) * dz
-    assert volume > 0
-    assert slice_volume(design, tmp_path, Path(script).stem) == pytest.approx(volume, rel=0.08)
+    return sum(s.area for s in design.sections(list(zs))) * dz
+
+
+@pytest.mark.parametrize("script", sorted(p.name for p in CATALOG.glob("*.py")))
+def test_the_metamaterials_catalog_sections_hold_the_design_volume(script):
+    design = load_script(CATALOG / script)
+    lo, hi = (np.asarray(v) for v in design.bounds())
+    rng = np.random.default_rng(11)
+    points = rng.uniform(lo, hi, (60000, 3))
+    sampled = np.mean(design.sdf(*points.T) < 0) * np.prod(hi - lo)
+    assert layered_volume(design, 0.5) == pytest.approx(sampled, rel=0.03)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("script", ["catalog_sphere_fill.py", "concepts_cells.py"])
+def test_metamaterials_catalog_scripts_slice_to_their_volume(script, tmp_path):
+    design = load_script(CATALOG / script)
+    assert slice_volume(design, tmp_path, Path(script).stem) == pytest.approx(layered_volume(design, 0.3), rel=0.08)
 
 
 def test_the_openvcad_2_lattice_examples_load(tmp_path):
