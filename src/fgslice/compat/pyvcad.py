@@ -21,7 +21,6 @@ so they are converted when the design is built, by :func:`to_node`.
 
 from __future__ import annotations
 
-import enum
 import functools
 import inspect
 import numbers
@@ -339,14 +338,32 @@ class Function(_Leaf):
         super().__init__(api.function(lo, hi, function, _material("Function", material)))
 
 
-class LatticeType(enum.Enum):
+class _LatticeKind:
+    """One value of ``LatticeType``: its OpenVCAD name and its catalog cell name."""
+
+    def __init__(self, name: str, cell: str) -> None:
+        self.name, self.value = name, cell
+
+    def __repr__(self) -> str:
+        return f"LatticeType.{self.name}"
+
+
+class _LatticeTypes(type):
+    def __getattr__(cls, name: str):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        raise DesignError(f"pyvcad.LatticeType.{name} is not supported by fgslice's pyvcad",
+                          hint="the lattice types are BodyCenteredCubic, FaceCenteredCubic, Cubic and KelvinCell")
+
+
+class LatticeType(metaclass=_LatticeTypes):
     """OpenVCAD 2's unit cells of ``GraphLattice``, by their catalog names in
     :data:`fgslice.design.lattice.GRAPH_CELLS`."""
 
-    BodyCenteredCubic = "bcc"
-    FaceCenteredCubic = "fcc"
-    Cubic = "cubic"
-    KelvinCell = "kelvin"
+    BodyCenteredCubic = _LatticeKind("BodyCenteredCubic", "bcc")
+    FaceCenteredCubic = _LatticeKind("FaceCenteredCubic", "fcc")
+    Cubic = _LatticeKind("Cubic", "cubic")
+    KelvinCell = _LatticeKind("KelvinCell", "kelvin")
 
 
 class GraphLattice(_Leaf):
@@ -356,10 +373,10 @@ class GraphLattice(_Leaf):
     ``Tile(lattice)`` repeats it."""
 
     def __init__(self, *args, **kwargs) -> None:
-        if args and isinstance(args[0], LatticeType) or "type" in kwargs:
+        if args and isinstance(args[0], _LatticeKind) or "type" in kwargs:
             kind, size, radius, material = _bind("GraphLattice", ("type", "size", "radius", "material"), args, kwargs,
                                                  {"material": 1})
-            if not isinstance(kind, LatticeType):
+            if not isinstance(kind, _LatticeKind):
                 raise DesignError(f"GraphLattice: type must be a pyvcad.LatticeType, got {kind!r}", hint=_DOCS)
             size = np.asarray(_vec3("GraphLattice", "size", size))
             if not np.all(size > 0):
