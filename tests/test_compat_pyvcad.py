@@ -222,7 +222,7 @@ def test_script_without_a_rendered_root_is_refused(tmp_path):
 
 @pytest.mark.parametrize("body, line, message", [
     ("lattice = pv.GraphLattice(pv.LatticeType.BCC, pv.Vec3(1, 1, 1), 0.1, 1)", 4,
-     "pyvcad.GraphLattice is not supported"),
+     "pyvcad.LatticeType.BCC is not supported"),
     (f"ball = pv.Sphere(pv.Vec3(0, 0, 0), 1, {RED}, sample=2)", 4, "Sphere has no argument 'sample'"),
     (f"box = pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(1, 1, 1), {RED}, 2)", 4, r"RectPrism takes at most 3 arguments"),
     ("rod = pv.Strut(pv.Vec3(0, 0, 0), radius=1)", 4, "Strut is missing its argument 'end'"),

@@ -211,6 +211,22 @@ def check_command(design, materials, profile, sets):
     sys.exit(0 if report.usable else 1)
 
 
+@main.command("export-mesh")
+@click.argument("design", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path), help="STL file to write.")
+@click.option("--resolution", type=float, default=0.2, show_default=True, help="Grid step of marching cubes, mm.")
+@click.option("--materials", type=click.Path(dir_okay=False, path_type=Path), help="Material library JSON.")
+def export_mesh_command(design, output, resolution, materials):
+    """Write DESIGN's surface as an STL mesh (marching cubes on its signed distance)."""
+    from fgslice.compat import open_design as load_design
+    from fgslice.design.export import export_mesh
+    from fgslice.output import check_writable
+
+    check_writable(output, inputs=(design,))
+    vertices, triangles = export_mesh(load_design(design, materials), output, resolution)
+    click.echo(f"{output}: {triangles:,} triangles, {vertices:,} vertices ({resolution:g} mm grid)")
+
+
 @main.command("profiles")
 @click.option("--keys", is_flag=True, help="List every setting with its value in the profile and its meaning.")
 @click.option("--profile", help="The profile --keys shows: a built-in name or a TOML file (default: marlin-mixing).")

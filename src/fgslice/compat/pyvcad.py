@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from fgslice.compat import context
-from fgslice.design import api, nodes
+from fgslice.design import api, lattice, nodes
 from fgslice.design.expressions import combine_expressions, compile_expression
 from fgslice.design.language import resolve_mesh_path
 from fgslice.errors import DesignError, FgsliceError, MeshError
@@ -41,6 +41,7 @@ __all__ = [
     "Vec3", "MaterialDefs", "default_materials", "resources_path",
     "RectPrism", "Sphere", "Cylinder", "Strut", "Mesh", "Function",
     "Union", "Intersection", "Difference", "Translate", "Rotate", "Scale", "FGrade",
+    "LatticeType", "GraphLattice", "Tile", "ImplicitUnitCell", "GraphUnitCell",
 ]
 
 
@@ -49,6 +50,10 @@ def _unsupported(owner: str, name: str) -> DesignError:
 
 
 def __getattr__(name: str):
+    if name in ("ImplicitUnitCell", "GraphUnitCell"):  # OpenVCAD 3's unit cells, from the metamaterials module
+        from fgslice.compat import pyvcad_metamaterials
+
+        return getattr(pyvcad_metamaterials, name)
     if name.startswith("__"):
         raise AttributeError(name)
     from fgslice.compat import pyvcad_v3
@@ -347,6 +352,108 @@ class Function(_Leaf):
                               hint="give min and max as pyvcad.Vec3 corners (mm)")
         lo, hi = _vec3("Function", "min", lo), _vec3("Function", "max", hi)
         super().__init__(api.function(lo, hi, function, _material("Function", material)))
+
+
+class _LatticeKind:
+    """One value of ``LatticeType``: its OpenVCAD name and its catalog cell name."""
+
+    def __init__(self, name: str, cell: str) -> None:
+        self.name, self.value = name, cell
+
+    def __repr__(self) -> str:
+        return f"LatticeType.{self.name}"
+
+
+class _LatticeTypes(type):
+    def __getattr__(cls, name: str):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        raise DesignError(f"pyvcad.LatticeType.{name} is not supported by fgslice's pyvcad",
+                          hint="the lattice types are BodyCenteredCubic, FaceCenteredCubic, Cubic and KelvinCell")
+
+
+class LatticeType(metaclass=_LatticeTypes):
+    """OpenVCAD 2's unit cells of ``GraphLattice``, by their catalog names in
+    :data:`fgslice.design.lattice.GRAPH_CELLS`."""
+
+    BodyCenteredCubic = _LatticeKind("BodyCenteredCubic", "bcc")
+    FaceCenteredCubic = _LatticeKind("FaceCenteredCubic", "fcc")
+    Cubic = _LatticeKind("Cubic", "cubic")
+    KelvinCell = _LatticeKind("KelvinCell", "kelvin")
+
+
+class GraphLattice(_Leaf):
+    """``GraphLattice(type, size, radius, material=1)``: one unit cell of ``type``, of
+    ``size`` (Vec3) centred on the origin, struts of ``radius``; or
+    ``GraphLattice(edges, radius, material=1)`` with edges ``[(start, end), ...]`` of Vec3.
+    ``Tile(lattice)`` repeats it."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        if args and isinstance(args[0], _LatticeKind) or "type" in kwargs:
+            kind, size, radius, material = _bind("GraphLattice", ("type", "size", "radius", "material"), args, kwargs,
+                                                 {"material": 1})
+            if not isinstance(kind, _LatticeKind):
+                raise DesignError(f"GraphLattice: type must be a pyvcad.LatticeType, got {kind!r}", hint=_DOCS)
+            size = np.asarray(_vec3("GraphLattice", "size", size))
+            if not np.all(size > 0):
+                raise DesignError(f"GraphLattice: the cell size must be positive, got {tuple(size)}")
+            edges = lattice.graph_cell(kind.value) * size - size / 2
+        else:
+            edges, radius, material = _bind("GraphLattice", ("edges", "radius", "material"), args, kwargs,
+                                            {"material": 1})
+            edges = _edges("GraphLattice", edges)
+        self.extent = (edges.reshape(-1, 3).min(axis=0), edges.reshape(-1, 3).max(axis=0))
+        self.radius = lattice.Length("GraphLattice", "radius", radius)
+        self.material = _material("GraphLattice", material)
+        super().__init__(lattice.StrutLattice(edges, self.radius, material=self.material))
+
+
+def _edges(owner: str, edges) -> np.ndarray:
+    """``[(Vec3, Vec3), ...]`` as an array ``(n, 2, 3)``."""
+    if isinstance(edges, (str, Vec3)) or not isinstance(edges, Sequence) or not edges:
+        raise DesignError(f"{owner}: edges must be a non-empty list of (start, end) pairs of pyvcad.Vec3", hint=_DOCS)
+    out = []
+    for edge in edges:
+        if not isinstance(edge, Sequence) or len(edge) != 2:
+            raise DesignError(f"{owner}: an edge is a (start, end) pair of pyvcad.Vec3, got {edge!r}", hint=_DOCS)
+        out.append([_vec3(owner, "an edge's end", end) for end in edge])
+    return np.asarray(out, dtype=float)
+
+
+class Tile(Node):
+    """``Tile([cell_x, cell_y, cell_z][, child])`` or ``Tile()`` with ``set_child``: repeats
+    a ``GraphLattice`` without end, every cell of the given sizes or else every box of
+    the lattice's edges. It has no bounds: intersect it with a bounded shape."""
+
+    def __init__(self, *args) -> None:
+        super().__init__()
+        self._child = None
+        if args and isinstance(args[-1], Node):
+            self.set_child(args[-1])
+            args = args[:-1]
+        _overload("Tile", args, {0: "", 3: "cell_x, cell_y, cell_z"}, then=", then optionally the child")
+        self._cell = np.array([_number("Tile", a, v) for a, v in zip(("cell_x", "cell_y", "cell_z"), args)]) if args else None
+        if self._cell is not None and not np.all(self._cell > 0):
+            raise DesignError(f"Tile: cell sizes must be positive, got {tuple(self._cell)}")
+
+    def set_child(self, child) -> None:
+        """The lattice to repeat: a ``GraphLattice``."""
+        if not isinstance(child, GraphLattice):
+            raise DesignError(f"Tile repeats a GraphLattice; fgslice does not tile a {type(child).__name__}",
+                              hint="make the cell with pyvcad.GraphLattice(type, size, radius, material)")
+        self._child = child
+
+    def _build(self, convert) -> nodes.Node:
+        if self._child is None:
+            raise DesignError("Tile has no child", hint="give it a GraphLattice with set_child(node)")
+        cell = self._child
+        lo, hi = cell.extent
+        period = self._cell if self._cell is not None else hi - lo
+        if not np.all(period > 0):
+            raise DesignError("Tile: the lattice's edges span no volume, so its cell size is unknown",
+                              hint="give the cell sizes: Tile(cell_x, cell_y, cell_z, lattice)")
+        origin = (lo + hi) / 2 - period / 2
+        return lattice.StrutLattice(cell._node.edges, cell.radius, period=period, origin=origin, material=cell.material)
 
 
 def _bind(owner: str, names: tuple[str, ...], args: tuple, kwargs: dict, defaults: dict) -> list:

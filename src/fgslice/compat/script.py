@@ -1,9 +1,9 @@
 """Run an OpenVCAD design script (``design.py``) and return the design it renders.
 
-The script runs as Python, in a fresh ``__main__`` namespace, with ``pyvcad`` and
-``pyvcad_rendering`` importable as :mod:`fgslice.compat.pyvcad` and
-:mod:`fgslice.compat.pyvcad_rendering`, and ``numba`` as
-:mod:`fgslice.compat.numba_standin` (``sys.modules`` entries and the script's folder
+The script runs as Python, in a fresh ``__main__`` namespace, with ``pyvcad``,
+``pyvcad_rendering`` and ``pyvcad_metamaterials`` importable as :mod:`fgslice.compat.pyvcad`,
+:mod:`fgslice.compat.pyvcad_rendering` and :mod:`fgslice.compat.pyvcad_metamaterials`, and
+``numba`` as :mod:`fgslice.compat.numba_standin` (``sys.modules`` entries and the script's folder
 on ``sys.path``, both restored afterwards). The design is the root passed to the last
 ``Export``, else to the last ``Render``, else the top-level variable ``root``. Any error —
 the script's own exception, an unsupported pyvcad name or argument, an invalid value — is
@@ -64,7 +64,10 @@ def _compile(path: Path, source: str):
 @contextlib.contextmanager
 def _pyvcad_importable(folder: Path):
     """``import pyvcad`` / ``pyvcad_rendering`` give fgslice's modules; the folder is on sys.path."""
-    names = {"pyvcad": pyvcad, "pyvcad_rendering": pyvcad_rendering, "numba": numba_standin}
+    from fgslice.compat import pyvcad_metamaterials
+
+    names = {"pyvcad": pyvcad, "pyvcad_rendering": pyvcad_rendering,
+             "pyvcad_metamaterials": pyvcad_metamaterials, "numba": numba_standin}
     saved = {name: sys.modules.get(name) for name in names}
     sys.modules.update(names)
     sys.path.insert(0, str(folder))

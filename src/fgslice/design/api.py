@@ -135,8 +135,13 @@ def union(*children: nodes.Node) -> nodes.Node:
 
 
 def intersection(*children: nodes.Node) -> nodes.Node:
-    """Intersection of the children, with the first child's materials."""
-    return nodes.Intersection(_children("intersection", children))
+    """Intersection of the children, with the first child's materials. Lattices that
+    repeat without end below it take the bounds of the bounded children."""
+    from fgslice.design.lattice import confine
+
+    children = _children("intersection", children)
+    confine(children)
+    return nodes.Intersection(children)
 
 
 def difference(first: nodes.Node, *others: nodes.Node) -> nodes.Node:

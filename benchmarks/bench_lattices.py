@@ -1,0 +1,113 @@
+"""Lattice rows against PrusaSlicer: the same geometry sliced by fgslice from the design
+and by PrusaSlicer from an STL that ``fgslice export-mesh`` writes of it.
+
+Rows:
+
+* ``bcc_bar``: OpenVCAD's ``4_graded_lattice_bar.py`` (160 x 40 x 20 mm, body-centred
+  cubic cells of 10 mm, struts of radius 1.5 mm under a red-blue grade);
+* ``gyroid_cube``: a 60 mm gyroid sheet cube (``pyvcad_metamaterials``, 6 x 6 x 6 cells,
+  1.2 mm walls).
+
+Both slicers get the same single-material settings (0.2 mm layers, 2 walls, 15 % infill,
+3 top and 3 bottom layers, one skirt loop, centred on a 220 x 220 mm bed, no
+thumbnails), taken in turns; fgslice also slices the bar as designed (graded, default
+settings) for reference. The STL export is timed on its own (it is not part of either
+slice). Prints wall and CPU seconds and the ratio fgslice / PrusaSlicer; PrusaSlicer's
+rows are skipped when ``prusa-slicer`` is not installed.
+
+Run: ``.venv/bin/python benchmarks/bench_lattices.py [--rows bcc_bar,gyroid_cube]
+[--resolution 0.3] [--repeat 1] [--jobs 2]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import sys
+import tempfile
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from run_all import SINGLE_BENCHY_ARGS, byte_compile, fgslice_cmd, measure, median_run  # noqa: E402
+
+OPENVCAD_BAR = Path("/work/ref/OpenVCAD-Public/examples/lattices/4_graded_lattice_bar.py")
+
+BAR = """import pyvcad as pv
+import pyvcad_rendering as viz
+
+materials = pv.default_materials
+red = materials.id("red")
+blue = materials.id("blue")
+cell = pv.GraphLattice(pv.LatticeType.BodyCenteredCubic, pv.Vec3(10, 10, 10), 1.5, red)
+bar = pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(160, 40, 20), red)
+filled_bar = pv.Intersection(False, [pv.Tile(cell), bar])
+fgrade = pv.FGrade(["x/150 + 0.5", "-x/150 + 0.5"], [red, blue], False)
+fgrade.set_child(filled_bar)
+viz.Render(fgrade, materials)
+"""
+"""OpenVCAD's ``4_graded_lattice_bar.py`` as it runs (used when the checkout is absent)."""
+
+GYROID = """import pyvcad as pv
+import pyvcad_metamaterials as mm
+import pyvcad_rendering as viz
+
+cell_map = mm.rectangular_cell_map((pv.Vec3(-30, -30, -30), pv.Vec3(30, 30, 30)), cells=(6, 6, 6))
+viz.Render(mm.gyroid(cell_map, mode="sheet", wall_thickness=1.2))
+"""
+
+ROWS = {"bcc_bar": BAR, "gyroid_cube": GYROID}
+
+PRUSA_ARGS = ("--export-gcode", "--layer-height", "0.2", "--first-layer-height", "0.2", "--perimeters", "2",
+              "--fill-density", "15%", "--top-solid-layers", "3", "--bottom-solid-layers", "3", "--skirts", "1",
+              "--center", "110,110")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rows", default=",".join(ROWS))
+    parser.add_argument("--resolution", type=float, default=0.3, help="STL grid step, mm")
+    parser.add_argument("--repeat", type=int, default=1)
+    parser.add_argument("--jobs", type=int, default=2)
+    args = parser.parse_args()
+    byte_compile()
+    prusa = shutil.which("prusa-slicer")
+    with tempfile.TemporaryDirectory() as tmp:
+        work = Path(tmp)
+        for row in args.rows.split(","):
+            design = work / f"{row}.py"
+            text = OPENVCAD_BAR.read_text() if row == "bcc_bar" and OPENVCAD_BAR.exists() else ROWS[row]
+            design.write_text(text)
+            stl = work / f"{row}.stl"
+            export = measure([sys.executable, "-m", "fgslice.cli", "export-mesh", str(design), "-o", str(stl),
+                              "--resolution", str(args.resolution)], work)
+            if export.returncode != 0:
+                print(f"{row}: export-mesh failed: {export.stderr.strip()[-300:]}")
+                continue
+            size_mb = stl.stat().st_size / 1e6
+            print(f"\n{row}: STL at {args.resolution:g} mm, {(stl.stat().st_size - 84) // 50:,} triangles "
+                  f"({size_mb:.0f} MB), exported in {export.wall_s:.1f} s")
+            commands = {"fgslice": fgslice_cmd(design, SINGLE_BENCHY_ARGS, work / f"{row}_fg.gcode", args.jobs)}
+            if row == "bcc_bar":
+                commands["fgslice graded"] = fgslice_cmd(design, ("--set", "thumbnails="), work / f"{row}_graded.gcode",
+                                                         args.jobs)
+            if prusa:
+                commands["prusa-slicer"] = [prusa, *PRUSA_ARGS, "-o", str(work / f"{row}_prusa.gcode"), str(stl)]
+            else:
+                print("  prusa-slicer  skipped: not installed (Debian package prusa-slicer)")
+            rounds = [{name: measure(cmd, work) for name, cmd in commands.items()} for _ in range(args.repeat)]
+            runs = {name: median_run([(r[name], {}) for r in rounds])[0] for name in commands}
+            for name, run in runs.items():
+                if run.returncode != 0:
+                    print(f"  {name:14s} failed (exit {run.returncode}): {run.stderr.strip().splitlines()[-1:]}")
+                    continue
+                ratio = ""
+                if name == "prusa-slicer" and runs["fgslice"].returncode == 0:
+                    ratio = (f"  fgslice/prusa-slicer: wall {runs['fgslice'].wall_s / run.wall_s:.2f}, "
+                             f"cpu {runs['fgslice'].cpu_s / run.cpu_s:.2f}")
+                print(f"  {name:14s} wall {run.wall_s:7.2f} s  cpu {run.cpu_s:7.2f} s  peak {run.peak_mb:6.0f} MB{ratio}",
+                      flush=True)
+
+
+if __name__ == "__main__":
+    main()
