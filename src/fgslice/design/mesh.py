@@ -345,6 +345,17 @@ class MeshGeometry:
             tables = self._tables(spanned)
         return tables.sections(zs, self.gap_tolerance)
 
+    def transformed(self, matrix: np.ndarray, offset: np.ndarray) -> MeshGeometry:
+        """This mesh with every vertex ``v`` moved to ``matrix @ v + offset`` (mm): a new
+        geometry whose sections and distance are exact in the new frame, whatever the map
+        (rotation, scaling, mirror). A map that mirrors (negative determinant) reverses
+        each triangle's corners so that the faces still wind counter-clockwise seen from
+        outside."""
+        matrix = np.asarray(matrix, dtype=float)
+        faces = self._faces[:, ::-1] if np.linalg.det(matrix) < 0 else self._faces
+        return MeshGeometry(self._vertices @ matrix.T + np.asarray(offset, dtype=float), np.ascontiguousarray(faces),
+                            merge=self._merge, path=self.path, gap_tolerance=self.gap_tolerance)
+
     @cached_property
     def _whole(self) -> "_Tables":
         if self._merge:  # from here on the merged vertices stand for the file's (one copy fewer)
