@@ -22,7 +22,9 @@ import trimesh
 LFS_HEADER = b"version https://git-lfs.github.com/spec/v1"
 BYTES_PER_TRIANGLE = {".stl": 50, ".3mf": 15, ".obj": 40, ".off": 30}
 """About how many bytes a triangle takes in each format (a 3MF is zipped XML)."""
-BENCHY = Path(os.environ.get("BENCHY", Path(__file__).resolve().parents[2] / "shared" / "data" / "meshes" / "3DBenchy.stl"))
+BENCHY = Path(os.environ.get("BENCHY") or next(
+    (p / "shared" / "data" / "meshes" / "3DBenchy.stl" for p in Path(__file__).resolve().parents
+     if (p / "shared" / "data" / "meshes" / "3DBenchy.stl").is_file()), "3DBenchy.stl"))
 
 
 def lfs_size(path: Path) -> int | None:

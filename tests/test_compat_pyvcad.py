@@ -46,7 +46,7 @@ CASES = {
         'union() { translate(0, 0, 1) { cylinder(3, 6, "red"); } translate(4, 0, 0) { cylinder(2, 4, "blue"); } }',
     ),
     "Intersection": (
-        f"""root = pv.Intersection(True, [pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(8, 8, 8), {BLUE}),
+        f"""root = pv.Intersection(False, [pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(8, 8, 8), {BLUE}),
                                        pv.Sphere(pv.Vec3(0, 0, 0), 5.5, {RED})])""",
         'intersection() { rectprism(8, 8, 8, "blue"); sphere(5.5, "red"); }',
     ),

@@ -353,8 +353,9 @@ def _bind(owner: str, names: tuple[str, ...], args: tuple, kwargs: dict, default
 
 class _Children(Node):
     """Union / Intersection: ``([k][, flag][, [children]])`` or the children themselves
-    (OpenVCAD 3). A smoothing radius ``k`` must be 0; the distribution flag is accepted
-    (overlaps take the first child's materials); ``add_child`` adds one child."""
+    (OpenVCAD 3). A smoothing radius ``k`` must be 0; the distribution flag mixes an
+    intersection's materials (a union's overlaps take the first child's materials);
+    ``add_child`` adds one child."""
 
     _make = None
 
@@ -369,8 +370,7 @@ class _Children(Node):
             if k != 0:
                 raise DesignError(f"{owner}: a smooth blend (k = {k:g}) is not supported by fgslice",
                                   hint=f"use k = 0, or {owner}(False, [children])")
-        if rest and isinstance(rest[0], bool):
-            rest.pop(0)
+        self._distribution = bool(rest.pop(0)) if rest and isinstance(rest[0], bool) else False
         children = rest.pop(0) if rest and isinstance(rest[0], Sequence) and not isinstance(rest[0], str) else []
         if rest:
             raise DesignError(f"{owner} takes ([k][, flag][, [children]]) or nodes, got {args!r}", hint=_DOCS)
@@ -393,7 +393,13 @@ class Union(_Children):
 
 
 class Intersection(_Children):
-    _make = staticmethod(api.intersection)
+    """``Intersection(True, ...)`` (``intersect_distribution``) mixes the children's
+    materials: the mean of their fractions."""
+
+    def _build(self, convert) -> nodes.Node:
+        if not self._children:
+            raise DesignError("Intersection has no children", hint="add them with add_child(node)")
+        return api.intersection(*(convert(c) for c in self._children), mix=self._distribution)
 
 
 def _child(owner: str, child) -> Node:

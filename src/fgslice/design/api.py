@@ -134,8 +134,13 @@ def union(*children: nodes.Node) -> nodes.Node:
     return nodes.Union(_children("union", children))
 
 
-def intersection(*children: nodes.Node) -> nodes.Node:
-    """Intersection of the children, with the first child's materials."""
+def intersection(*children: nodes.Node, mix: bool = False) -> nodes.Node:
+    """Intersection of the children, with the first child's materials; ``mix``: the
+    mean of every child's fractions instead (OpenVCAD's ``intersect_distribution``)."""
+    if mix:
+        from fgslice.design.mixed import MixedIntersection
+
+        return MixedIntersection(_children("intersection", children))
     return nodes.Intersection(_children("intersection", children))
 
 

@@ -1,0 +1,38 @@
+"""Defects found by running OpenVCAD's examples, each on the input that found it."""
+
+from __future__ import annotations
+
+import textwrap
+
+import numpy as np
+import pytest
+
+from fgslice.compat.script import load_script
+
+HEADER = "import pyvcad as pv\nimport pyvcad_rendering as viz\nmaterials = pv.default_materials\n"
+
+
+def _script(tmp_path, body: str, name: str = "design.py"):
+    path = tmp_path / name
+    path.write_text(HEADER + textwrap.dedent(body))
+    return path
+
+
+@pytest.mark.parametrize("mix, expected", [(True, (0.5, 0.5)), (False, (1.0, 0.0))])
+def test_intersection_with_the_distribution_flag_mixes_the_materials(tmp_path, mix, expected):
+    """5-3_multi_material_hello_world: a red and a blue sphere intersected with
+    ``intersect_distribution`` print purple (half of each) in their lens; without, red."""
+    path = _script(tmp_path, f"""
+        radius = 5
+        left_sphere  = pv.Sphere(pv.Vec3(-radius/2, 0, 0), radius, materials.id("red"))
+        right_sphere = pv.Sphere(pv.Vec3(+radius/2, 0, 0), radius, materials.id("blue"))
+        root = pv.Intersection({mix}, [left_sphere, right_sphere])
+        viz.Render(root, materials)
+        """)
+    design = load_script(path)
+    assert [m.name for m in design.materials] == ["red", "blue"]
+    lo, hi = design.bounds()
+    assert lo[0] == pytest.approx(-2.5) and hi[0] == pytest.approx(2.5)
+    x = np.array([-2.0, 0.0, 1.5])
+    fractions = design.fractions(x, np.zeros(3), np.zeros(3))
+    assert np.allclose(fractions, np.tile(expected, (3, 1)))
