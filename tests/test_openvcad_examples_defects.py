@@ -36,3 +36,16 @@ def test_intersection_with_the_distribution_flag_mixes_the_materials(tmp_path, m
     x = np.array([-2.0, 0.0, 1.5])
     fractions = design.fractions(x, np.zeros(3), np.zeros(3))
     assert np.allclose(fractions, np.tile(expected, (3, 1)))
+
+
+def test_rings_that_shrink_below_three_points_are_dropped_before_building():
+    """openvcad_logo_qr_code's sampled gyroid: a traced ring whose repeated points leave
+    two distinct ones made every layer fail ("A linearring requires at least 4
+    coordinates"); it is dropped and the other rings kept."""
+    from fgslice.design.sampled import _polygons
+
+    points = np.array([[0, 0], [10, 0], [10, 10], [0, 10], [5, 5], [5, 5], [6, 6.0], [20, 0], [20, 0], [20, 0]])
+    ring = np.array([0, 0, 0, 0, 1, 1, 1, 2, 2, 2])
+    result = _polygons(points, ring)
+    assert result.is_valid and result.area == pytest.approx(100.0)
+    assert _polygons(points[4:], ring[4:]).is_empty
