@@ -49,3 +49,45 @@ def test_rings_that_shrink_below_three_points_are_dropped_before_building():
     result = _polygons(points, ring)
     assert result.is_valid and result.area == pytest.approx(100.0)
     assert _polygons(points[4:], ring[4:]).is_empty
+
+
+TRI_MATERIAL_SHEET = """
+def create_color_calibration_sheet(swatch_size, count_x, count_y, thickness, colors):
+    union = pv.Union()
+    for i in range(count_x):
+        for j in range(count_y):
+            c_frac = i / (count_x - 1)
+            m_frac = j / (count_y - 1)
+            fractions = [f"{c_frac:.3f}", f"{m_frac:.3f}", f"{1.0 - (c_frac + m_frac):.3f}"]
+            center = pv.Vec3(-swatch_size * count_x / 2 + swatch_size / 2 + i * swatch_size,
+                             -swatch_size * count_y / 2 + swatch_size / 2 + j * swatch_size, 0)
+            base = pv.RectPrism(center, pv.Vec3(swatch_size, swatch_size, thickness), colors[2])
+            union.add_child(pv.FGrade(fractions, colors, True, base))
+    return union
+
+mats = pv.default_materials
+root = create_color_calibration_sheet(25, 12, 12, 10, [mats.id("cyan"), mats.id("magenta"), mats.id("white")])
+viz.Render(root, mats)
+"""
+
+
+def test_check_reports_what_slice_refuses_before_any_layer(tmp_path):
+    """tri_material_sheet: 300 x 300 mm of three materials. ``check`` called it usable,
+    then ``slice`` refused it for the bed and the two-channel hotend; both are errors of
+    ``check`` now, with the same words."""
+    from fgslice.design.check import check_design
+    from fgslice.errors import FgsliceError
+    from fgslice.pipeline import slice_to_gcode
+    from fgslice.settings import load_settings
+
+    design = load_script(_script(tmp_path, TRI_MATERIAL_SHEET))
+    settings = load_settings(None)
+    report = check_design(design, settings=settings, samples=40)
+    assert not report.usable
+    assert any("3 materials but the mixing hotend has 2 channels" in e for e in report.errors)
+    assert any("footprint 300.00 x 300.00 mm exceeds the bed" in e for e in report.errors)
+    with pytest.raises(FgsliceError) as refused:
+        slice_to_gcode(design, settings, tmp_path / "sheet.gcode", jobs=1)
+    assert any(refused.value.message in e for e in report.errors)
+    roomy = load_settings(None, {"channels": "3", "colors": "4", "bed_x": "320", "bed_y": "320"})
+    assert check_design(design, settings=roomy, samples=40).usable
