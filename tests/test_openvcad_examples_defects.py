@@ -91,3 +91,36 @@ def test_check_reports_what_slice_refuses_before_any_layer(tmp_path):
     assert any(refused.value.message in e for e in report.errors)
     roomy = load_settings(None, {"channels": "3", "colors": "4", "bed_x": "320", "bed_y": "320"})
     assert check_design(design, settings=roomy, samples=40).usable
+
+
+def test_a_git_lfs_pointer_is_named_with_the_fix(tmp_path):
+    """An OpenVCAD checkout without ``git lfs pull`` holds pointers in place of meshes."""
+    from fgslice.design.mesh import load_mesh
+    from fgslice.errors import MeshError
+
+    for name in ("gear.stl", "keychain_blank.3mf"):
+        pointer = tmp_path / name
+        pointer.write_text("version https://git-lfs.github.com/spec/v1\n"
+                           "oid sha256:84cafc925771211edfddf4f7726c9a48d8f95e793598d8aac642188a9172b207\nsize 9116\n")
+        with pytest.raises(MeshError) as error:
+            load_mesh(pointer)
+        assert "this is a Git LFS pointer" in error.value.message and "git lfs pull" in error.value.message
+
+
+def test_legacy_designs_find_meshes_named_from_openvcads_resources_root(tmp_path):
+    """OpenVCAD's legacy .vcad designs (studio/examples/legacy/...) name their meshes
+    ``examples/data/3d_models/...``, relative to the folder holding ``examples``."""
+    import trimesh
+
+    from fgslice.design.language import parse_design
+
+    models = tmp_path / "studio" / "examples" / "data" / "3d_models"
+    models.mkdir(parents=True)
+    trimesh.creation.cylinder(radius=5, height=10).export(models / "cylinder.stl")
+    folder = tmp_path / "studio" / "examples" / "legacy" / "mechanical" / "compression"
+    folder.mkdir(parents=True)
+    design_path = folder / "cylinder_no_transition.vcad"
+    design_path.write_text('mesh("examples/data/3d_models/cylinder.stl", "red");\n')
+    design = parse_design(design_path.read_text(), file=design_path)
+    lo, hi = design.bounds()
+    assert np.allclose(lo, (-5, -5, -5), atol=1e-6) and np.allclose(hi, (5, 5, 5), atol=1e-6)
