@@ -21,6 +21,7 @@ so they are converted when the design is built, by :func:`to_node`.
 
 from __future__ import annotations
 
+import enum
 import functools
 import inspect
 import numbers
@@ -33,6 +34,7 @@ from fgslice.compat import context
 from fgslice.design import api, nodes
 from fgslice.design.expressions import combine_expressions, compile_expression
 from fgslice.design.language import resolve_mesh_path
+from fgslice.design.text import text as text_shape
 from fgslice.errors import DesignError, FgsliceError, MeshError
 
 _DOCS = "see the supported subset in docs/language.md"
@@ -561,3 +563,53 @@ def _stamp(top: nodes.Node, where: nodes.Where) -> nodes.Node:
             node.where = where
             stack.extend(node.children)
     return top
+
+
+class FontAspect(enum.Enum):
+    """``pyvcad.FontAspect``: the style of a ``Text``'s font."""
+
+    Regular = "regular"
+    Bold = "bold"
+    Italic = "italic"
+    BoldItalic = "bolditalic"
+
+
+class HorizontalAlignment(enum.Enum):
+    """``pyvcad.HorizontalAlignment``: where each line of a ``Text`` sits on X = 0."""
+
+    Left = "left"
+    Center = "center"
+    Right = "right"
+
+
+class VerticalAlignment(enum.Enum):
+    """``pyvcad.VerticalAlignment``: where a ``Text`` block sits on Y = 0."""
+
+    Bottom = "bottom"
+    Center = "center"
+    Top = "top"
+
+
+class Text(_Leaf):
+    """``Text(text, height, depth, material=1, aspect=FontAspect.Regular, font='Consolas',
+    h_align=HorizontalAlignment.Center, v_align=VerticalAlignment.Center)``: the string
+    (lines split at ``\\n``) ``height`` mm tall over all lines, extruded ``depth`` mm
+    about Z = 0 (:mod:`fgslice.design.text`; fonts other than matplotlib's map to DejaVu)."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        content, height, depth, material, aspect, font, h_align, v_align = _bind(
+            "Text", ("text", "height", "depth", "material", "aspect", "font", "h_align", "v_align"), args, kwargs,
+            {"material": 1, "aspect": FontAspect.Regular, "font": "Consolas", "h_align": HorizontalAlignment.Center,
+             "v_align": VerticalAlignment.Center})
+        if not isinstance(content, str):
+            raise DesignError(f"Text: the text must be a string, got {content!r}", hint=_DOCS)
+        for what, value, kind in (("aspect", aspect, FontAspect), ("h_align", h_align, HorizontalAlignment),
+                                  ("v_align", v_align, VerticalAlignment)):
+            if not isinstance(value, kind):
+                raise DesignError(f"Text: {what} must be a pyvcad.{kind.__name__}, got {value!r}", hint=_DOCS)
+        super().__init__(text_shape(content, _number("Text", "height", height), _number("Text", "depth", depth),
+                                    _material("Text", material), font=str(font), aspect=aspect.value,
+                                    h_align=h_align.value, v_align=v_align.value))
+
+
+__all__ += ["FontAspect", "HorizontalAlignment", "VerticalAlignment", "Text"]
