@@ -34,6 +34,7 @@ from fgslice.compat import context
 from fgslice.design import api, nodes
 from fgslice.design.expressions import combine_expressions, compile_expression
 from fgslice.design.language import resolve_mesh_path
+from fgslice.design.extrusion import polygon_extrude
 from fgslice.design.text import text as text_shape
 from fgslice.errors import DesignError, FgsliceError, MeshError
 
@@ -613,3 +614,21 @@ class Text(_Leaf):
 
 
 __all__ += ["FontAspect", "HorizontalAlignment", "VerticalAlignment", "Text"]
+
+
+class PolygonExtrude(_Leaf):
+    """``PolygonExtrude(vertices, height, symmetric=False, material=1)``: a planar polygon of
+    ``Vec3`` vertices extruded along its normal (:func:`fgslice.design.extrusion.polygon_extrude`)."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        vertices, height, symmetric, material = _bind(
+            "PolygonExtrude", ("vertices", "height", "symmetric", "material"), args, kwargs,
+            {"symmetric": False, "material": 1})
+        if isinstance(vertices, (str, bytes)) or not isinstance(vertices, Sequence):
+            raise DesignError(f"PolygonExtrude: vertices must be a list of Vec3, got {vertices!r}", hint=_DOCS)
+        points = [tuple(_vec3("PolygonExtrude", "a vertex", p)) for p in vertices]
+        super().__init__(polygon_extrude(points, _number("PolygonExtrude", "height", height), bool(symmetric),
+                                         _material("PolygonExtrude", material)))
+
+
+__all__ += ["PolygonExtrude"]
