@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from fgslice.compat import context
-from fgslice.design import api, nodes
+from fgslice.design import api, nodes, smooth
 from fgslice.design.expressions import combine_expressions, compile_expression
 from fgslice.design.language import resolve_mesh_path
 from fgslice.design.extrusion import polygon_extrude
@@ -356,11 +356,13 @@ def _bind(owner: str, names: tuple[str, ...], args: tuple, kwargs: dict, default
 
 class _Children(Node):
     """Union / Intersection: ``([k][, flag][, [children]])`` or the children themselves
-    (OpenVCAD 3). A smoothing radius ``k`` must be 0; the distribution flag mixes an
+    (OpenVCAD 3). A smoothing radius ``k > 0`` blends the children (:mod:`fgslice.design.smooth`);
+    the distribution flag mixes an
     intersection's materials (a union's overlaps take the first child's materials);
     ``add_child`` adds one child."""
 
     _make = None
+    _k = 0.0
 
     def __init__(self, *args) -> None:
         super().__init__()
@@ -369,10 +371,9 @@ class _Children(Node):
             args = (list(args),)
         rest = list(args)
         if rest and not isinstance(rest[0], bool) and isinstance(rest[0], numbers.Real):
-            k = float(rest.pop(0))
-            if k != 0:
-                raise DesignError(f"{owner}: a smooth blend (k = {k:g}) is not supported by fgslice",
-                                  hint=f"use k = 0, or {owner}(False, [children])")
+            self._k = float(rest.pop(0))
+            if self._k < 0:
+                raise DesignError(f"{owner}: the smoothing radius k must be >= 0, got {self._k:g}", hint=_DOCS)
         self._distribution = bool(rest.pop(0)) if rest and isinstance(rest[0], bool) else False
         children = rest.pop(0) if rest and isinstance(rest[0], Sequence) and not isinstance(rest[0], str) else []
         if rest:
@@ -388,6 +389,8 @@ class _Children(Node):
     def _build(self, convert) -> nodes.Node:
         if not self._children:
             raise DesignError(f"{type(self).__name__} has no children", hint="add them with add_child(node)")
+        if self._k > 0:
+            return smooth.SmoothUnion(self._k, [convert(c) for c in self._children])
         return type(self)._make(*(convert(c) for c in self._children))
 
 
@@ -402,6 +405,11 @@ class Intersection(_Children):
     def _build(self, convert) -> nodes.Node:
         if not self._children:
             raise DesignError("Intersection has no children", hint="add them with add_child(node)")
+        if self._k > 0 and self._distribution:
+            raise DesignError("Intersection: a smooth blend (k > 0) with intersect_distribution is not supported "
+                              "by fgslice", hint="use one of the two: Intersection(k, False, ...) or Intersection(True, ...)")
+        if self._k > 0:
+            return smooth.SmoothIntersection(self._k, [convert(c) for c in self._children])
         return api.intersection(*(convert(c) for c in self._children), mix=self._distribution)
 
 
@@ -413,15 +421,17 @@ def _child(owner: str, child) -> Node:
 
 class Difference(Node):
     """``Difference(left, right)`` (or ``()`` with ``set_left`` / ``set_right``): left
-    minus right, with left's materials; a leading smoothing radius ``k`` must be 0."""
+    minus right, with left's materials; a leading smoothing radius ``k > 0`` rounds the
+    cut (:mod:`fgslice.design.smooth`)."""
+
+    _k = 0.0
 
     def __init__(self, *args) -> None:
         super().__init__()
         if len(args) in (1, 3):
-            k, args = _number("Difference", "k", args[0]), args[1:]
-            if k != 0:
-                raise DesignError(f"Difference: a smooth blend (k = {k:g}) is not supported by fgslice",
-                                  hint="use k = 0, or Difference(left, right)")
+            self._k, args = _number("Difference", "k", args[0]), args[1:]
+            if self._k < 0:
+                raise DesignError(f"Difference: the smoothing radius k must be >= 0, got {self._k:g}", hint=_DOCS)
         _overload("Difference", args, {0: "", 2: "left, right"})
         self._left = self._right = None
         if args:
@@ -439,6 +449,8 @@ class Difference(Node):
     def _build(self, convert) -> nodes.Node:
         if self._left is None or self._right is None:
             raise DesignError("Difference needs a left and a right child", hint="use set_left(a) and set_right(b)")
+        if self._k > 0:
+            return smooth.SmoothDifference(self._k, [convert(self._left), convert(self._right)])
         return api.difference(convert(self._left), convert(self._right))
 
 
