@@ -30,6 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from openvcad_standins import examples_with_standins  # noqa: E402
 
 FGSLICE = Path(sys.executable).with_name("fgslice")
+ERROR = re.compile(r"(^|: )error: ")
 HINTED = re.compile(r"--set ([a-z_]+=[^\s,)]+)")
 RETRIES = 3
 
@@ -43,13 +44,13 @@ def run(args: list[str], timeout: float, cwd: Path) -> tuple[str, str, float]:
         return "timeout", f"over {timeout:g} s", time.perf_counter() - start
     seconds = time.perf_counter() - start
     text = done.stderr + done.stdout
-    errors = [line for line in text.splitlines() if line.startswith("error:")]
+    errors = [line.split("error: ", 1)[1] for line in text.splitlines() if ERROR.search(line)]
     if done.returncode == 0:
         return "ok", "", seconds
     if "Traceback" in text or any("internal error" in e for e in errors) or not errors:
         return "crash", (errors or text.strip().splitlines() or ["no output"])[-1][:200], seconds
     hints = [line for line in text.splitlines() if line.strip().startswith("hint:")]
-    return "refused", errors[0][len("error: "):][:200] + ("".join(f" | {h.strip()}" for h in hints[:1])), seconds
+    return "refused", errors[0][:200] + ("".join(f" | {h.strip()}" for h in hints[:1])), seconds
 
 
 def slice_as_a_user(script: Path, timeout: float, jobs: int) -> tuple[str, str, float, list[str]]:

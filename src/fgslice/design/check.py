@@ -177,17 +177,17 @@ def _check_machine(design: Design, settings, report: CheckReport) -> None:
     """The refusals ``fgslice slice`` would meet under ``settings`` before any layer: a
     palette that does not fit the materials, fewer machine channels than materials, a
     part larger than the bed."""
+    from fgslice.design.attributes import attribute_fields
     from fgslice.machine.state_dialect import dialect_for
-    from fgslice.machine.grading import checked_attributes
     from fgslice.slicing.plan_layers import place_design
-    from fgslice.slicing.states import make_palette, state_levels
+    from fgslice.slicing.states import make_palette
 
-    def palette():
-        attributes = checked_attributes(design, settings)
-        levels = state_levels(attributes.ranges, attributes.cover, settings) if attributes is not None else None
-        return make_palette(len(design.materials), settings.colors, settings.palette, levels)
-
-    for step in (lambda: dialect_for(settings, palette()), lambda: place_design(design, settings)):
+    fields = attribute_fields(design)
+    steps = [lambda: place_design(design, settings)]
+    if fields is None or "temperature" not in fields.names:  # temperature states: checked with their levels
+        steps.insert(0, lambda: dialect_for(settings, make_palette(len(design.materials), settings.colors,
+                                                                   settings.palette, None)))
+    for step in steps:
         try:
             step()
         except FgsliceError as exc:
