@@ -46,7 +46,7 @@ CASES = {
         'union() { translate(0, 0, 1) { cylinder(3, 6, "red"); } translate(4, 0, 0) { cylinder(2, 4, "blue"); } }',
     ),
     "Intersection": (
-        f"""root = pv.Intersection(True, [pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(8, 8, 8), {BLUE}),
+        f"""root = pv.Intersection(False, [pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(8, 8, 8), {BLUE}),
                                        pv.Sphere(pv.Vec3(0, 0, 0), 5.5, {RED})])""",
         'intersection() { rectprism(8, 8, 8, "blue"); sphere(5.5, "red"); }',
     ),
@@ -230,7 +230,7 @@ def test_script_without_a_rendered_root_is_refused(tmp_path):
     ("f = pv.Function('x^2 + y^2 - 1', 1)", 4, "Function needs its bounding box"),
     (f"ball = pv.Sphere(pv.Vec3(0, 0, 0), 1, {RED})\n        box = ball.bounding_box()", 5,
      "Sphere.bounding_box is not supported"),
-    (f"root = pv.Intersection(2.0, False, [pv.Sphere(pv.Vec3(0, 0, 0), 1, {RED})])", 4, r"smooth blend \(k = 2\)"),
+    (f"root = pv.Union(-2.0, False, [pv.Sphere(pv.Vec3(0, 0, 0), 1, {RED})])", 4, r"k must be >= 0, got -2"),
     ("import pyvcad_rendering as viz\n        viz.RenderFrame()", 5, "pyvcad_rendering.RenderFrame is not supported"),
     ("root = pv.Translate(1, 2)", 4, r"Translate takes \(\) or \(x, y, z\), then optionally the child, got 2"),
     ("root = pv.Rotate(pv.Vec3(0, 0, 0), 5)", 4, r"Rotate takes .* \(angles: Vec3\) .*, got 2"),

@@ -91,7 +91,9 @@ def test_only_exact_mesh_subtrees_use_sections(tmp_path):
             union() { function((-1,-1,-1),(1,1,1), "x"); mesh("m.stl"); }
             rotate(0, 0, 30) { mesh("m.stl"); }
             rotate(30, 0, 0) { mesh("m.stl"); }
+            rotate(30, 0, 0) { union() { mesh("m.stl"); sphere(1); } }
         }""",
         file=tmp_path / "d.vcad",
     )
-    assert [membership.uses_sections(c) for c in design.root.children] == [True, False, False, True, False]
+    # a tilted mesh sections exactly (its vertices are rotated); a tilted sphere is sampled
+    assert [membership.uses_sections(c) for c in design.root.children] == [True, False, False, True, True, False]

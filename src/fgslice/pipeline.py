@@ -90,6 +90,8 @@ class SliceJob:
         layers: ``(layer index, top z, height)`` per layer, bed frame, mm.
         start_xy: where each layer's travel ordering starts, bed frame, mm.
         outlines: strategy 1 only: every layer's bed-frame outline, in layer order.
+        sections: strategy 2, a design holding meshes: every layer's section (design
+            frame), cut in batches once for the layers and the thumbnails.
         repeats: strategy 2: the layers this process has finished, for later layers whose
             regions repeat theirs (``planning.repeats``; the one part each process changes).
         grading: the design's fan, flow and speed attributes (``machine.grading``), if any.
@@ -103,6 +105,7 @@ class SliceJob:
     layers: list[tuple[int, float, float]]
     start_xy: np.ndarray
     outlines: list[shapely.Geometry] = field(default_factory=list)
+    sections: list[shapely.Geometry] = field(default_factory=list)
     repeats: RepeatedLayers = field(default_factory=RepeatedLayers)
     grading: SegmentGrading | None = None
     fuzzy: FuzzySkin | None = None
@@ -185,6 +188,13 @@ def _section_task(job: SliceJob, indices: Sequence[int]) -> list[shapely.Geometr
         return list(polygonal_each(simplify_outline(polygonal_each(shifted), job.settings.gcode_resolution)))
 
 
+def _plane_task(job: SliceJob, indices: Sequence[int]) -> list[shapely.Geometry]:
+    """Strategy 2, a design holding meshes: the sections of some layers (design frame)."""
+    oz = job.placement.offset[2]
+    with _failures_of(job, indices):
+        return job.design.sections([job.layers[i][1] - job.layers[i][2] / 2 - oz for i in indices])
+
+
 def _layer_task(job: SliceJob, index: int) -> LayerResult:
     """Regions, toolpaths and order of one layer, and its paths' G-code moves."""
     with _failures_of(job, [index]):
@@ -199,7 +209,8 @@ def _layer_result(job: SliceJob, index: int) -> LayerResult:
     repeats = (job.repeats if s.strategy == 2 and index > 0 and job.fuzzy is None
                and s.seam_position != "random" and not s.support else None)
     if s.strategy == 2:
-        regions = slice_layer(job.design, job.placement, job.palette, i, z_top, height, s)
+        regions = slice_layer(job.design, job.placement, job.palette, i, z_top, height, s,
+                              section=job.sections[index] if job.sections else None)
         repeated = repeats.find(regions) if repeats is not None else None
         if repeated is not None:
             plan, result = repeated
@@ -372,10 +383,13 @@ def slice_to_gcode(
     with contextlib.ExitStack() as cleanup:
         tower = None
         sizer = PurgeSizer.for_palette(settings, palette)
+        batches = [range(i, min(i + SECTION_BATCH, len(layers))) for i in range(0, len(layers), SECTION_BATCH)]
         if settings.strategy == 1 or settings.support:
-            batches = [range(i, min(i + SECTION_BATCH, len(layers))) for i in range(0, len(layers), SECTION_BATCH)]
             job.outlines = list(itertools.chain.from_iterable(
                 map_ordered(_section_task, job, batches, jobs=jobs, scheduler=scheduler, probe=True)))
+        elif getattr(design, "meshes", ()):
+            job.sections = list(itertools.chain.from_iterable(
+                map_ordered(_plane_task, job, batches, jobs=jobs, scheduler=scheduler, probe=True)))
         if settings.support:
             job.supports = plan_supports(job.outlines, settings)
         if callable(thumbnails):
@@ -542,21 +556,16 @@ def _prepare_for_workers() -> None:
 
 def _thumbnail_render(job: SliceJob, thumbnails: Callable[[LayerOutlines | None], Thumbnails]) -> Callable[[], Thumbnails]:
     """``thumbnails`` bound to what it draws the part from: strategy 1's layer outlines;
-    in strategy 2, a mesh design's outlines, sectioned where the render runs (exact and
-    batched for meshes, a fraction of the 3-D distances the design itself would need);
+    in strategy 2, a mesh design's sections, those the layers take (exact and batched
+    for meshes, a fraction of the 3-D distances the design itself would need);
     else the design itself (None)."""
     if job.settings.strategy == 1:
         return functools.partial(thumbnails, _thumbnail_layers(job, job.outlines))
-    if getattr(job.design, "meshes", ()):
-        return functools.partial(_sectioned_thumbnails, job, thumbnails)
+    if job.sections:
+        ox, oy, _ = job.placement.offset
+        shifted = shapely.transform(np.array(job.sections, dtype=object), lambda c: c + np.array([ox, oy]))
+        return functools.partial(thumbnails, _thumbnail_layers(job, list(polygonal_each(shifted))))
     return functools.partial(thumbnails, None)
-
-
-def _sectioned_thumbnails(job: SliceJob, thumbnails: Callable[[LayerOutlines | None], Thumbnails]) -> Thumbnails:
-    """``thumbnails`` of every layer's outline, sectioned here as strategy 1 does."""
-    n = len(job.layers)
-    outlines = [o for i in range(0, n, SECTION_BATCH) for o in _section_task(job, range(i, min(i + SECTION_BATCH, n)))]
-    return thumbnails(_thumbnail_layers(job, outlines))
 
 
 def _thumbnail_layers(job: SliceJob, outlines: Sequence[shapely.Geometry]) -> LayerOutlines:

@@ -21,6 +21,7 @@ so they are converted when the design is built, by :func:`to_node`.
 
 from __future__ import annotations
 
+import enum
 import functools
 import inspect
 import numbers
@@ -30,9 +31,11 @@ from pathlib import Path
 import numpy as np
 
 from fgslice.compat import context
-from fgslice.design import api, lattice, nodes
+from fgslice.design import api, lattice, nodes, smooth
 from fgslice.design.expressions import combine_expressions, compile_expression
 from fgslice.design.language import resolve_mesh_path
+from fgslice.design.extrusion import polygon_extrude
+from fgslice.design.text import text as text_shape
 from fgslice.errors import DesignError, FgsliceError, MeshError
 
 _DOCS = "see the supported subset in docs/language.md"
@@ -476,11 +479,13 @@ def _bind(owner: str, names: tuple[str, ...], args: tuple, kwargs: dict, default
 
 class _Children(Node):
     """Union / Intersection: ``([k][, flag][, [children]])`` or the children themselves
-    (OpenVCAD 3). A union blends its children with a smoothing radius ``k`` > 0 (mm;
-    :mod:`fgslice.design.smooth`), an intersection's must be 0; the distribution flag is
-    accepted (overlaps take the first child's materials); ``add_child`` adds one child."""
+    (OpenVCAD 3). A smoothing radius ``k > 0`` blends the children (:mod:`fgslice.design.smooth`);
+    the distribution flag mixes an
+    intersection's materials (a union's overlaps take the first child's materials);
+    ``add_child`` adds one child."""
 
     _make = None
+    _k = 0.0
 
     def __init__(self, *args) -> None:
         super().__init__()
@@ -490,12 +495,10 @@ class _Children(Node):
         rest = list(args)
         self._k = 0.0
         if rest and not isinstance(rest[0], bool) and isinstance(rest[0], numbers.Real):
-            k = self._k = float(rest.pop(0))
-            if k < 0 or (k != 0 and not isinstance(self, Union)):
-                raise DesignError(f"{owner}: a smooth blend (k = {k:g}) is not supported by fgslice",
-                                  hint=f"use k = 0, or {owner}(False, [children])")
-        if rest and isinstance(rest[0], bool):
-            rest.pop(0)
+            self._k = float(rest.pop(0))
+            if self._k < 0:
+                raise DesignError(f"{owner}: the smoothing radius k must be >= 0, got {self._k:g}", hint=_DOCS)
+        self._distribution = bool(rest.pop(0)) if rest and isinstance(rest[0], bool) else False
         children = rest.pop(0) if rest and isinstance(rest[0], Sequence) and not isinstance(rest[0], str) else []
         if rest:
             raise DesignError(f"{owner} takes ([k][, flag][, [children]]) or nodes, got {args!r}", hint=_DOCS)
@@ -510,12 +513,9 @@ class _Children(Node):
     def _build(self, convert) -> nodes.Node:
         if not self._children:
             raise DesignError(f"{type(self).__name__} has no children", hint="add them with add_child(node)")
-        children = [convert(c) for c in self._children]
         if self._k > 0:
-            from fgslice.design.smooth import SmoothUnion
-
-            return SmoothUnion(self._k, children)
-        return type(self)._make(*children)
+            return smooth.SmoothUnion(self._k, [convert(c) for c in self._children])
+        return type(self)._make(*(convert(c) for c in self._children))
 
 
 class Union(_Children):
@@ -523,7 +523,18 @@ class Union(_Children):
 
 
 class Intersection(_Children):
-    _make = staticmethod(api.intersection)
+    """``Intersection(True, ...)`` (``intersect_distribution``) mixes the children's
+    materials: the mean of their fractions."""
+
+    def _build(self, convert) -> nodes.Node:
+        if not self._children:
+            raise DesignError("Intersection has no children", hint="add them with add_child(node)")
+        if self._k > 0 and self._distribution:
+            raise DesignError("Intersection: a smooth blend (k > 0) with intersect_distribution is not supported "
+                              "by fgslice", hint="use one of the two: Intersection(k, False, ...) or Intersection(True, ...)")
+        if self._k > 0:
+            return smooth.SmoothIntersection(self._k, [convert(c) for c in self._children])
+        return api.intersection(*(convert(c) for c in self._children), mix=self._distribution)
 
 
 def _child(owner: str, child) -> Node:
@@ -534,15 +545,17 @@ def _child(owner: str, child) -> Node:
 
 class Difference(Node):
     """``Difference(left, right)`` (or ``()`` with ``set_left`` / ``set_right``): left
-    minus right, with left's materials; a leading smoothing radius ``k`` must be 0."""
+    minus right, with left's materials; a leading smoothing radius ``k > 0`` rounds the
+    cut (:mod:`fgslice.design.smooth`)."""
+
+    _k = 0.0
 
     def __init__(self, *args) -> None:
         super().__init__()
         if len(args) in (1, 3):
-            k, args = _number("Difference", "k", args[0]), args[1:]
-            if k != 0:
-                raise DesignError(f"Difference: a smooth blend (k = {k:g}) is not supported by fgslice",
-                                  hint="use k = 0, or Difference(left, right)")
+            self._k, args = _number("Difference", "k", args[0]), args[1:]
+            if self._k < 0:
+                raise DesignError(f"Difference: the smoothing radius k must be >= 0, got {self._k:g}", hint=_DOCS)
         _overload("Difference", args, {0: "", 2: "left, right"})
         self._left = self._right = None
         if args:
@@ -560,6 +573,8 @@ class Difference(Node):
     def _build(self, convert) -> nodes.Node:
         if self._left is None or self._right is None:
             raise DesignError("Difference needs a left and a right child", hint="use set_left(a) and set_right(b)")
+        if self._k > 0:
+            return smooth.SmoothDifference(self._k, [convert(self._left), convert(self._right)])
         return api.difference(convert(self._left), convert(self._right))
 
 
@@ -691,3 +706,71 @@ def _stamp(top: nodes.Node, where: nodes.Where) -> nodes.Node:
             node.where = where
             stack.extend(node.children)
     return top
+
+
+class FontAspect(enum.Enum):
+    """``pyvcad.FontAspect``: the style of a ``Text``'s font."""
+
+    Regular = "regular"
+    Bold = "bold"
+    Italic = "italic"
+    BoldItalic = "bolditalic"
+
+
+class HorizontalAlignment(enum.Enum):
+    """``pyvcad.HorizontalAlignment``: where each line of a ``Text`` sits on X = 0."""
+
+    Left = "left"
+    Center = "center"
+    Right = "right"
+
+
+class VerticalAlignment(enum.Enum):
+    """``pyvcad.VerticalAlignment``: where a ``Text`` block sits on Y = 0."""
+
+    Bottom = "bottom"
+    Center = "center"
+    Top = "top"
+
+
+class Text(_Leaf):
+    """``Text(text, height, depth, material=1, aspect=FontAspect.Regular, font='Consolas',
+    h_align=HorizontalAlignment.Center, v_align=VerticalAlignment.Center)``: the string
+    (lines split at ``\\n``) ``height`` mm tall over all lines, extruded ``depth`` mm
+    about Z = 0 (:mod:`fgslice.design.text`; fonts other than matplotlib's map to DejaVu)."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        content, height, depth, material, aspect, font, h_align, v_align = _bind(
+            "Text", ("text", "height", "depth", "material", "aspect", "font", "h_align", "v_align"), args, kwargs,
+            {"material": 1, "aspect": FontAspect.Regular, "font": "Consolas", "h_align": HorizontalAlignment.Center,
+             "v_align": VerticalAlignment.Center})
+        if not isinstance(content, str):
+            raise DesignError(f"Text: the text must be a string, got {content!r}", hint=_DOCS)
+        for what, value, kind in (("aspect", aspect, FontAspect), ("h_align", h_align, HorizontalAlignment),
+                                  ("v_align", v_align, VerticalAlignment)):
+            if not isinstance(value, kind):
+                raise DesignError(f"Text: {what} must be a pyvcad.{kind.__name__}, got {value!r}", hint=_DOCS)
+        super().__init__(text_shape(content, _number("Text", "height", height), _number("Text", "depth", depth),
+                                    _material("Text", material), font=str(font), aspect=aspect.value,
+                                    h_align=h_align.value, v_align=v_align.value))
+
+
+__all__ += ["FontAspect", "HorizontalAlignment", "VerticalAlignment", "Text"]
+
+
+class PolygonExtrude(_Leaf):
+    """``PolygonExtrude(vertices, height, symmetric=False, material=1)``: a planar polygon of
+    ``Vec3`` vertices extruded along its normal (:func:`fgslice.design.extrusion.polygon_extrude`)."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        vertices, height, symmetric, material = _bind(
+            "PolygonExtrude", ("vertices", "height", "symmetric", "material"), args, kwargs,
+            {"symmetric": False, "material": 1})
+        if isinstance(vertices, (str, bytes)) or not isinstance(vertices, Sequence):
+            raise DesignError(f"PolygonExtrude: vertices must be a list of Vec3, got {vertices!r}", hint=_DOCS)
+        points = [tuple(_vec3("PolygonExtrude", "a vertex", p)) for p in vertices]
+        super().__init__(polygon_extrude(points, _number("PolygonExtrude", "height", height), bool(symmetric),
+                                         _material("PolygonExtrude", material)))
+
+
+__all__ += ["PolygonExtrude"]

@@ -134,13 +134,18 @@ def union(*children: nodes.Node) -> nodes.Node:
     return nodes.Union(_children("union", children))
 
 
-def intersection(*children: nodes.Node) -> nodes.Node:
-    """Intersection of the children, with the first child's materials. Lattices that
-    repeat without end below it take the bounds of the bounded children."""
+def intersection(*children: nodes.Node, mix: bool = False) -> nodes.Node:
+    """Intersection of the children, with the first child's materials; ``mix``: the
+    mean of every child's fractions instead (OpenVCAD's ``intersect_distribution``).
+    Lattices that repeat without end below it take the bounds of the bounded children."""
     from fgslice.design.lattice import confine
 
     children = _children("intersection", children)
     confine(children)
+    if mix:
+        from fgslice.design.mixed import MixedIntersection
+
+        return MixedIntersection(children)
     return nodes.Intersection(children)
 
 

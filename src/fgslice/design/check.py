@@ -129,6 +129,8 @@ def check_design(design: Design, *, samples: int = DEFAULT_SAMPLES, settings=Non
     if not np.all(np.isfinite(lo)) or not np.all(np.isfinite(hi)) or np.any(hi <= lo):
         report.errors.append(f"the design is empty or unbounded (bounding box {bounds})")
         return report
+    if settings is not None:
+        _check_machine(design, settings, report)
     x, y, z, report.spacing = _grid(bounds, samples)
     try:
         if isinstance(design, NodeDesign) and design.meshes:
@@ -177,6 +179,27 @@ def check_design(design: Design, *, samples: int = DEFAULT_SAMPLES, settings=Non
             f"'{report.materials[0].name}', is used there)"
         )
     return report
+
+
+def _check_machine(design: Design, settings, report: CheckReport) -> None:
+    """The refusals ``fgslice slice`` would meet under ``settings`` before any layer: a
+    palette that does not fit the materials, fewer machine channels than materials, a
+    part larger than the bed."""
+    from fgslice.design.attributes import attribute_fields
+    from fgslice.machine.state_dialect import dialect_for
+    from fgslice.slicing.plan_layers import place_design
+    from fgslice.slicing.states import make_palette
+
+    fields = attribute_fields(design)
+    steps = [lambda: place_design(design, settings)]
+    if fields is None or "temperature" not in fields.names:  # temperature states: checked with their levels
+        steps.insert(0, lambda: dialect_for(settings, make_palette(len(design.materials), settings.colors,
+                                                                   settings.palette, None)))
+    for step in steps:
+        try:
+            step()
+        except FgsliceError as exc:
+            report.errors.append(exc.message + (f" ({exc.hint})" if exc.hint else ""))
 
 
 def _check_attributes(design: Design, x, y, z, settings, report: CheckReport) -> None:

@@ -286,15 +286,20 @@ def _mesh(b: _Builder, args, where):
 
 
 def resolve_mesh_path(name: str, base_dir: Path | None, where: nodes.Where = nodes.NOWHERE) -> Path:
-    """A mesh file: absolute, else relative to ``base_dir`` (the design's folder), else to the cwd."""
+    """A mesh file: absolute, else relative to ``base_dir`` (the design's folder), else to the
+    cwd, else to a folder above ``base_dir`` (OpenVCAD's legacy designs name meshes from its
+    resources root, e.g. ``examples/data/3d_models/gear.stl`` from a design three folders
+    below it)."""
     path = Path(name)
     candidates = [path] if path.is_absolute() else ([base_dir / path] if base_dir else []) + [Path.cwd() / path]
-    for candidate in candidates:
+    above = [] if path.is_absolute() or base_dir is None else [folder / path for folder in Path(base_dir).resolve().parents]
+    for candidate in candidates + above:
         if candidate.is_file():
             return candidate
     raise MeshError(
         f"mesh file not found: '{name}'",
-        hint="looked in " + ", ".join(str(c.parent) for c in candidates),
+        hint="looked in " + ", ".join(str(c.parent) for c in candidates) + (" and the folders above the design's"
+                                                                            if above else ""),
         **where.error_kwargs(),
     )
 

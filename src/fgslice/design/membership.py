@@ -73,12 +73,13 @@ def uses_sections(node) -> bool:
 
 def _exact(node) -> bool:
     """Whether ``node`` itself computes its section without sampling its field."""
-    from fgslice.design.nodes import Affine, FunctionShape, Node
+    from fgslice.design.nodes import Affine, FunctionShape, Node, walk
 
     if isinstance(node, FunctionShape):
         return False
     if isinstance(node, Affine):
-        return node.keeps_z_vertical
+        tilted = node.moved_tree
+        return node.keeps_z_vertical or (tilted is not None and all(_exact(n) for n, *_ in walk(tilted)))
     return type(node)._section is not Node._section or type(node)._sections is not Node._sections
 
 

@@ -88,6 +88,7 @@ def load_mesh(path: str | Path, *, gap_tolerance: float = 0.25) -> MeshGeometry:
         )
     if not path.is_file():
         raise MeshError("mesh file not found", file=path, hint="check the path (relative paths start at the design file's folder)")
+    refuse_lfs_pointer(path)
     if file_type == "stl":  # the corners of each triangle in turn: faces are (0, 1, 2), (3, 4, 5), ...
         vertices, faces, element = _read_stl(path).reshape(-1, 3), None, "triangle"
     else:
@@ -107,6 +108,22 @@ def load_mesh(path: str | Path, *, gap_tolerance: float = 0.25) -> MeshGeometry:
             hint="repair the mesh (e.g. with your CAD program's mesh repair) and export it again",
         )
     return MeshGeometry(vertices, faces, merge=True, path=path, gap_tolerance=gap_tolerance)
+
+
+LFS_POINTER = b"version https://git-lfs.github.com/spec/v1"
+"""How a Git LFS pointer file starts (what a clone holds in place of a large file until
+``git lfs pull`` fetches it)."""
+
+
+def refuse_lfs_pointer(path: Path) -> None:
+    """Raise a MeshError naming the fix when ``path`` is a Git LFS pointer, not the file."""
+    with path.open("rb") as stream:
+        if stream.read(len(LFS_POINTER)) == LFS_POINTER:
+            raise MeshError(
+                "this is a Git LFS pointer, not the file itself: run git lfs pull",
+                file=path,
+                hint="in the repository's folder: git lfs install && git lfs pull (it fetches the large files)",
+            )
 
 
 def _read_with_trimesh(path: Path, file_type: str) -> tuple[np.ndarray, np.ndarray]:
@@ -344,6 +361,17 @@ class MeshGeometry:
                 return [_EMPTY] * len(zs)
             tables = self._tables(spanned)
         return tables.sections(zs, self.gap_tolerance)
+
+    def transformed(self, matrix: np.ndarray, offset: np.ndarray) -> MeshGeometry:
+        """This mesh with every vertex ``v`` moved to ``matrix @ v + offset`` (mm): a new
+        geometry whose sections and distance are exact in the new frame, whatever the map
+        (rotation, scaling, mirror). A map that mirrors (negative determinant) reverses
+        each triangle's corners so that the faces still wind counter-clockwise seen from
+        outside."""
+        matrix = np.asarray(matrix, dtype=float)
+        faces = self._faces[:, ::-1] if np.linalg.det(matrix) < 0 else self._faces
+        return MeshGeometry(self._vertices @ matrix.T + np.asarray(offset, dtype=float), np.ascontiguousarray(faces),
+                            merge=self._merge, path=self.path, gap_tolerance=self.gap_tolerance)
 
     @cached_property
     def _whole(self) -> "_Tables":

@@ -8,7 +8,8 @@ Every node works in its own frame (millimetres). A node provides
   (analytic polygons, vertices within ``spacing / 20`` of the true curve) for sphere,
   cube, rectprism, cylinder and strut; exact for meshes (delegated); booleans combine the
   sections of their children; translations, scalings and rotations that keep Z vertical
-  transform the child's section. Anything else (``function``, tilting rotations) is
+  transform the child's section; a tilting one moves the vertices of the meshes below
+  it (:mod:`fgslice.design.moved`). Anything else (``function``, tilted primitives) is
   traced with :func:`fgslice.design.sampled.section_from_sdf` on cells of
   ``SAMPLED_CELL * spacing``, vertices within ``spacing / 20`` of the surface (a
   ``function`` on its expression, clipped to its box exactly).
@@ -585,7 +586,9 @@ class Affine(Node):
     """A linear map ``p = M q + t`` from the child's frame ``q`` to this node's frame ``p``.
 
     Sections are exact when ``M`` keeps the Z axis vertical (no tilt): the child's
-    section at the corresponding height, mapped in 2D. Otherwise they are sampled.
+    section at the corresponding height, mapped in 2D. Otherwise, below a map holding a
+    mesh, the map is moved onto the meshes' vertices (:attr:`moved_tree`), whose
+    sections are exact; anything else is sampled.
     """
 
     def __init__(self, matrix, offset, child: Node | Sequence[Node], where: Where = NOWHERE) -> None:
@@ -608,13 +611,31 @@ class Affine(Node):
             mapped.append(functools.reduce(np.add, terms))
         return tuple(mapped)
 
+    @functools.cached_property
+    def moved_tree(self) -> Node | None:
+        """The child with this map moved onto its meshes (:func:`fgslice.design.moved.moved`)
+        when the map tilts the Z axis and a mesh lies below; None otherwise."""
+        from fgslice.design.moved import holds_mesh, moved
+
+        if self.keeps_z_vertical or not holds_mesh(self._body):
+            return None
+        return moved(self._body, self.matrix, self.offset)
+
+    @property
+    def valid_sections(self) -> bool:
+        return self.moved_tree is not None and self.moved_tree.valid_sections
+
     def sdf(self, x, y, z):
+        if self.moved_tree is not None:
+            return self.moved_tree.sdf(x, y, z)
         # scaled by the map's smallest stretch so the result stays a lower bound on distance
         stretch = float(self._stretch.min())
         distance = self._body.sdf(*self.local(x, y, z))
         return distance if stretch == 1 else distance * stretch
 
     def _bounds(self):
+        if self.moved_tree is not None:
+            return self.moved_tree.bounds()
         lo, hi = self._body.bounds()
         if np.any(lo > hi):
             return lo + self.offset, hi + self.offset
@@ -629,6 +650,8 @@ class Affine(Node):
         return m[0, 2] == 0 and m[1, 2] == 0 and m[2, 0] == 0 and m[2, 1] == 0
 
     def _sections(self, zs, spacing):
+        if self.moved_tree is not None:
+            return self.moved_tree.sections(zs, spacing)
         if not self.keeps_z_vertical:
             return [sampled_section(self, z, spacing) for z in zs]
         m = np.where(np.abs(self.matrix) < 1e-12, 0.0, self.matrix)
@@ -645,6 +668,8 @@ class Affine(Node):
     def raw(self, x, y, z, columns):
         if self._body.coordinate_free:
             return self._body.raw(x, y, z, columns)
+        if self.moved_tree is not None:
+            return self.moved_tree.raw(x, y, z, columns)
         return self._body.raw(*self.local(x, y, z), columns)
 
     @functools.cached_property
@@ -671,11 +696,22 @@ def rotation_matrix(pitch: float, yaw: float, roll: float) -> np.ndarray:
     Applied to a child, it turns it first by ``pitch`` about X, then by ``yaw`` about Y,
     then by ``roll`` about Z, all about the axes of the parent frame.
     """
-    a, b, c = np.radians([pitch, yaw, roll])
-    rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
-    ry = np.array([[np.cos(b), 0, np.sin(b)], [0, 1, 0], [-np.sin(b), 0, np.cos(b)]])
-    rz = np.array([[np.cos(c), -np.sin(c), 0], [np.sin(c), np.cos(c), 0], [0, 0, 1]])
+    (ca, sa), (cb, sb), (cc, sc) = (_cos_sin(angle) for angle in (pitch, yaw, roll))
+    rx = np.array([[1, 0, 0], [0, ca, -sa], [0, sa, ca]])
+    ry = np.array([[cb, 0, sb], [0, 1, 0], [-sb, 0, cb]])
+    rz = np.array([[cc, -sc, 0], [sc, cc, 0], [0, 0, 1]])
     return rz @ ry @ rx
+
+
+def _cos_sin(degrees: float) -> tuple[float, float]:
+    """Cosine and sine of an angle in degrees, exactly 0 and +-1 at multiples of 90
+    degrees (so that quarter turns map axes onto axes without 1e-16 residues, which
+    would make a plane's points leave their plane)."""
+    quarters = float(degrees) / 90.0
+    if quarters == round(quarters):
+        return ((1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0))[int(round(quarters)) % 4]
+    radians = math.radians(degrees)
+    return math.cos(radians), math.sin(radians)
 
 
 class Rotate(Affine):
@@ -889,7 +925,6 @@ class NodeDesign(Design):
         self.has_void = False
         unnamed = False
         self.node_count = 0
-        self.meshes: list[MeshShape] = []
         for node, depth, overridden in walk(root):
             self.node_count += 1
             if depth > MAX_DEPTH:
@@ -898,8 +933,6 @@ class NodeDesign(Design):
                     hint="flatten the tree: a union takes any number of children",
                     **node.where.error_kwargs(),
                 )
-            if isinstance(node, MeshShape):
-                self.meshes.append(node)
             used = node.materials if isinstance(node, Fgrade) else ()
             if isinstance(node, Primitive) and node.material is not None:
                 used = (node.material,)
@@ -927,6 +960,10 @@ class NodeDesign(Design):
         """Materials named only below an fgrade, which overrides them: ``(name, where)`` of
         each one's first mention. They are not among :attr:`materials`."""
         self._materials = materials
+        from fgslice.design.moved import section_meshes
+
+        self.meshes: list[MeshShape] = section_meshes(root)
+        """The meshes the design sections (below a tilting transform, the moved ones)."""
         self.columns = Columns(names + ([VOID] if self.has_void else []))
 
     @property

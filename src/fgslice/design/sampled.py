@@ -510,7 +510,11 @@ def _polygons(points: np.ndarray, ring: np.ndarray) -> shapely.MultiPolygon:
     cross = points[:, 0] * points[following, 1] - points[following, 0] * points[:, 1]
     area = np.add.reduceat(cross, ring_start) / 2
     usable = (sizes >= 3) & (area != 0)
-    rings = shapely.linearrings(points, indices=np.repeat(np.arange(len(sizes)), sizes))
+    if not usable.any():
+        return shapely.MultiPolygon()
+    rings = np.empty(len(sizes), dtype=object)  # rings shrunk below 3 points are never built
+    rings[usable] = shapely.linearrings(points[np.repeat(usable, sizes)],
+                                        indices=np.repeat(np.arange(np.count_nonzero(usable)), sizes[usable]))
     shells = np.flatnonzero(usable & (area > 0))
     holes = np.flatnonzero(usable & (area < 0))
     if not shells.size:

@@ -1,39 +1,39 @@
-"""Smooth union: the children's union with a fillet of radius about ``k`` where they meet.
+"""Smooth booleans (OpenVCAD's ``Union(k, ...)``, ``Intersection(k, ...)``, ``Difference(k, ...)``).
 
-The signed distance is the polynomial smooth minimum of the children's, reduced pairwise
-in order (``smin(a, b) = min(a, b) - h^2 k / 4`` with ``h = max(k - |a - b|, 0) / k``, as
-OpenVCAD's ``Union(k, ...)`` and ``BBoxUnion(k)``); it adds material only where two
-surfaces come within ``k`` mm of each other, by at most ``k / 4`` mm. Sections are traced
-on that distance (:func:`fgslice.design.nodes.sampled_section`). Materials and attributes
-follow the union's rule: the first child containing a point, else the nearest one (the
-fillet takes the nearest child's).
+With a smoothing radius ``k > 0`` (mm) the children's distances are combined by the
+polynomial smooth minimum ``smin(a, b) = min(a, b) - h^2 k / 4`` with
+``h = max(k - |a - b|, 0) / k``: a fillet of about ``k`` where the surfaces meet, the sharp
+boolean where they are farther apart than ``k``. Intersection uses ``smax(a, b) =
+-smin(-a, -b)``, difference ``smax(a, -b)``. The fillets have no closed-form section:
+sections are traced on the combined distance (:func:`fgslice.design.nodes.sampled_section`);
+materials follow the sharp booleans' rules.
 """
 
 from __future__ import annotations
 
 import functools
-from collections.abc import Sequence
 
 import numpy as np
 
 from fgslice.design import nodes
-from fgslice.errors import DesignError
 
 
-def smooth_min(a: np.ndarray, b: np.ndarray, k: float) -> np.ndarray:
-    """Polynomial smooth minimum of two distances (mm) with blend radius ``k`` > 0 (mm)."""
+def smooth_min(a, b, k: float):
+    """Polynomial smooth minimum of ``a`` and ``b`` with radius ``k`` (mm)."""
     h = np.maximum(k - np.abs(a - b), 0.0) / k
     return np.minimum(a, b) - h * h * k / 4.0
 
 
+def _sampled(node, zs, spacing):
+    return [nodes.sampled_section(node, z, spacing) for z in zs]
+
+
 class SmoothUnion(nodes.Union):
-    """Union of the children blended with radius ``k`` (mm, > 0)."""
+    """Union whose children blend into each other within ``k`` mm."""
 
     kind = "smooth_union"
 
-    def __init__(self, k: float, children: Sequence[nodes.Node], where: nodes.Where = nodes.NOWHERE) -> None:
-        if not k > 0:
-            raise DesignError(f"a smooth union's blend radius must be positive, got {k:g}", **where.error_kwargs())
+    def __init__(self, k: float, children, where: nodes.Where = nodes.NOWHERE) -> None:
         super().__init__(children, where)
         self.k = float(k)
 
@@ -42,7 +42,38 @@ class SmoothUnion(nodes.Union):
 
     def _bounds(self):
         lo, hi = super()._bounds()
-        return lo - self.k / 4.0, hi + self.k / 4.0
+        return lo - self.k / 4, hi + self.k / 4  # the fillet reaches at most k / 4 beyond the children
 
-    def _sections(self, zs, spacing):
-        return [nodes.sampled_section(self, z, spacing) for z in zs]
+    _sections = _sampled
+
+
+class SmoothIntersection(nodes.Intersection):
+    """Intersection whose edges are rounded within ``k`` mm."""
+
+    kind = "smooth_intersection"
+
+    def __init__(self, k: float, children, where: nodes.Where = nodes.NOWHERE) -> None:
+        super().__init__(children, where)
+        self.k = float(k)
+
+    def sdf(self, x, y, z):
+        return functools.reduce(lambda a, b: -smooth_min(-a, -b, self.k), (c.sdf(x, y, z) for c in self.children))
+
+    _sections = _sampled
+
+
+class SmoothDifference(nodes.Difference):
+    """First child minus the others, the cut's edges rounded within ``k`` mm."""
+
+    kind = "smooth_difference"
+
+    def __init__(self, k: float, children, where: nodes.Where = nodes.NOWHERE) -> None:
+        super().__init__(children, where)
+        self.k = float(k)
+
+    def sdf(self, x, y, z):
+        first = self.children[0].sdf(x, y, z)
+        rest = functools.reduce(np.minimum, (c.sdf(x, y, z) for c in self.children[1:]))
+        return -smooth_min(-first, rest, self.k)
+
+    _sections = _sampled

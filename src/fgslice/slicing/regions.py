@@ -277,17 +277,20 @@ def slice_layer(
     settings: Settings,
     *,
     spacing: float | None = None,
+    section: shapely.Geometry | None = None,
 ) -> LayerRegions:
     """The outline and color faces of layer ``index`` (top at ``z_top``, thickness ``height``, mm).
 
     The design is cut at the mid-plane ``z_top - height / 2`` (bed frame), i.e. at
     ``z_top - height / 2 - offset_z`` in its own frame; the outline is translated by the
     placement's XY offset and simplified to :data:`SECTION_TOLERANCE`. ``spacing`` (mm)
-    overrides :func:`face_spacing`.
+    overrides :func:`face_spacing`; ``section``, the design's section at that plane when
+    it was cut already (design frame), saves cutting it again.
     """
     z_plane = z_top - height / 2
     ox, oy, oz = placement.offset
-    section = design.section(z_plane - oz)
+    if section is None:
+        section = design.section(z_plane - oz)
     outline = shapely.transform(section, lambda c: c + np.array([ox, oy]))
     outline = polygonal(shapely.simplify(polygonal(outline), SECTION_TOLERANCE, preserve_topology=False))
     field = field_for(design, placement, palette, settings)
