@@ -11,16 +11,18 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from conftest import SHARED_DATA
 from fgslice.cli import main
 from fgslice.design import api, load_design
 from fgslice.pipeline import slice_to_gcode
 from fgslice.settings import load_settings
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
-SHARED_BENCHY = EXAMPLES.parents[1] / "shared" / "data" / "meshes" / "3DBenchy.stl"
+SHARED_BENCHY = SHARED_DATA / "meshes" / "3DBenchy.stl"
 SLAB_MM = 1.0
 
 NATURAL = {
@@ -33,9 +35,11 @@ NATURAL = {
 
 
 def bottom_slab(path: Path):
-    """The example cut to its lowest ``SLAB_MM`` millimetre (same fields, same frame)."""
+    """The example cut to its lowest ``SLAB_MM`` millimetre (same fields, same frame); the
+    bounding box may reach below the part (a difference keeps its first body's box)."""
     design = load_design(path)
-    (x0, y0, z0), (x1, y1, _) = design.bounds()
+    (x0, y0, z0), (x1, y1, z1) = design.bounds()
+    z0 = next(z for z in np.arange(z0, z1, 0.05) if design.section(z + 0.05).area > 0)
     slab = api.translate(((x0 + x1) / 2, (y0 + y1) / 2, z0 + SLAB_MM / 2),
                          api.rectprism(x1 - x0 + 2, y1 - y0 + 2, SLAB_MM))
     return api.design(api.intersection(design.root, slab))

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import os
 import sys
+import traceback
 from pathlib import Path
 
 import click
@@ -36,6 +37,8 @@ class _Group(click.Group):
         try:
             return super().invoke(ctx)
         except FgsliceError as error:
+            if os.environ.get("FGSLICE_TRACEBACK") and error.__cause__ is not None:
+                traceback.print_exception(error)  # an unexpected error reported as a refusal: its frames
             _fail(error)
         except KeyboardInterrupt:
             click.echo("interrupted: no output file was written or changed", err=True)

@@ -20,6 +20,7 @@ import pickle
 import signal
 import sys
 import time
+import traceback
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor
@@ -146,13 +147,42 @@ def _consume(fn: Callable[..., Any], conn: Any, parent: int, args: tuple) -> Non
 
     try:
         outcome = ("ok", fn(messages(), *args))
-    except Exception as exc:  # handed to the parent, which raises it
-        outcome = ("error", exc)
+    except Exception as exc:  # handed to the parent, which raises it with this process's frames
+        outcome = ("error", _WithTraceback(exc))
     try:
         conn.send(outcome)
     except Exception:  # an exception that does not pickle
-        conn.send(("error", SliceError(f"{type(outcome[1]).__name__}: {outcome[1]}")))
+        failed = outcome[1].exc
+        conn.send(("error", SliceError(f"{type(failed).__name__}: {failed}")))
     conn.close()
+
+
+class RemoteTraceback(Exception):
+    """The traceback of an exception raised in another process, as text: the cause of
+    that exception once it is raised here, so that a printed traceback shows both
+    processes' frames (what :class:`concurrent.futures.ProcessPoolExecutor` does for its
+    workers)."""
+
+    def __str__(self) -> str:
+        return self.args[0]
+
+
+class _WithTraceback:
+    """An exception and its traceback as text, pickled together; unpickled, the
+    exception with :class:`RemoteTraceback` as its cause."""
+
+    def __init__(self, exc: Exception) -> None:
+        self.exc = exc
+        self.text = "".join(traceback.format_exception(exc))
+
+    def __reduce__(self) -> tuple:
+        return _rebuild, (self.exc, self.text)
+
+
+def _rebuild(exc: Exception, text: str) -> Exception:
+    """``exc`` with its remote traceback ``text`` as its cause."""
+    exc.__cause__ = RemoteTraceback(f'\n"""\n{text}"""')
+    return exc
 
 
 def _run(fn: Callable[[Any, Any], Any], state: Any, run: list) -> list:

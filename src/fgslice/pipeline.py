@@ -37,6 +37,7 @@ from pathlib import Path as FilePath
 import numpy as np
 import shapely
 
+from fgslice.coverage import check_coverage, mesh_warnings, part_volume
 from fgslice.design.base import Design
 from fgslice.errors import FgsliceError, SliceError
 from fgslice.executor import Consumer, default_jobs, map_ordered
@@ -110,6 +111,8 @@ class LayerResult:
         reassigned_mm2: strategy 2's face area given to a neighbouring color, mm^2.
         colors: number of palette colors the layer's paths use.
         commanded: the toolpaths' attribute ranges (:attr:`LayerPaths.commanded`).
+        outline_mm2: the area of the layer's outline, mm^2.
+        part_mm3: the volume the layer's part paths deposit, mm^3 (:func:`part_volume`).
     """
 
     plan: LayerPlan
@@ -118,6 +121,8 @@ class LayerResult:
     colors: int
     reassigned_mm2: float = 0.0
     commanded: dict[str, tuple[float, float]] = field(default_factory=dict)
+    outline_mm2: float = 0.0
+    part_mm3: float = 0.0
 
 
 @dataclass
@@ -200,13 +205,15 @@ def _layer_result(job: SliceJob, index: int) -> LayerResult:
         above = job.outlines[index + 1 : index + 1 + s.top_layers]
         field_ = field_for(job.design, job.placement, job.palette, s)
         paths, short = strategy1.layer_paths(regions, below, above, field_, job.palette, s)
+    part_mm3 = part_volume(paths.paths)
     if index == 0:
         paths.paths = skirt_paths(regions.outline, s) + paths.paths
     colors = len({p.color for p in paths.paths if p.color >= 0})
     plan = order_layer(paths, job.palette.order_for_layer(i), job.start_xy, s.feature_order)
     prepare_bodies(plan, s, job.grading)
     result = LayerResult(plan=plan, short_pieces=short, uncovered_mm2=paths.uncovered_mm2, colors=colors,
-                         reassigned_mm2=paths.reassigned_mm2, commanded=paths.commanded)
+                         reassigned_mm2=paths.reassigned_mm2, commanded=paths.commanded,
+                         outline_mm2=float(regions.outline.area), part_mm3=part_mm3)
     if repeats is not None:
         repeats.keep(regions, plan, result)
     return result
@@ -359,6 +366,7 @@ def slice_to_gcode(
 
         short_records: list[strategy1.ShortPieces] = []
         uncovered = [0.0]
+        covered = [0.0, 0.0, 0.0]  # the sections' volume and area, the part paths' volume
         reassigned = []  # (layer, mm^2) of the layers that gave slivers away
         commanded: dict[str, list[float]] = {}  # the toolpaths' attribute ranges
         total = len(layers)
@@ -368,6 +376,9 @@ def slice_to_gcode(
                 if result.short_pieces:
                     short_records.append(result.short_pieces)
                 uncovered[0] += result.uncovered_mm2
+                covered[0] += result.outline_mm2 * job.layers[done - 1][2]
+                covered[1] += result.outline_mm2
+                covered[2] += result.part_mm3
                 if result.reassigned_mm2 > 0:
                     reassigned.append((done - 1, result.reassigned_mm2))
                 for name, (low, high) in result.commanded.items():
@@ -425,6 +436,8 @@ def slice_to_gcode(
                     follower.send(size)
                     told = size
         stats = writer.finish()
+        coverage = check_coverage(covered[0], covered[1], covered[2], uncovered[0], settings.strategy,
+                                  settings.bead_width)
         handle.flush()
         if follower:
             os.fsync(handle.fileno())  # what is left of the disk write overlaps the verifier's last block
@@ -440,7 +453,9 @@ def slice_to_gcode(
     stats.setdefault("warnings", [])
     stats["warnings"] = list(stats["warnings"]) + strategy1.summarize_short_pieces(
         short_records, total, settings.min_segment_mm, palette.size
-    ) + _sliver_warning(reassigned, total, settings)
+    ) + _sliver_warning(reassigned, total, settings) + coverage
+    if settings.strategy == 2:  # whose sectioning built the whole meshes' tables already
+        stats["warnings"] += mesh_warnings(design)
     if settings.strategy == 2 and attributes is not None and "infill_density" in attributes.names:
         stats["warnings"].append("strategy 2 fills every face densely: the infill_density attribute is ignored")
     if isinstance(palette, StatePalette) and settings.dialect == "toolchanger" and settings.temperature_lead_s > 0:
