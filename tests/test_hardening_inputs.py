@@ -154,3 +154,59 @@ def test_fgslice_traceback_shows_the_worker_frames(tmp_path, monkeypatch):
                           timeout=120)
     assert done.returncode != 0
     assert "in broken" in done.stderr and "thumbnail failure" in done.stderr
+
+
+@pytest.mark.parametrize("args", [["--measured-error", "nan"], ["--measured-error", "inf"],
+                                  ["--melt-volume", "nan"], ["--melt-volume", "-inf"]])
+def test_calibrate_refuses_non_finite_numbers(args):
+    result = run("calibrate", "lookahead", *args)
+    assert result.exit_code == 2 and "is not a finite number" in result.output
+    assert "lookahead_mm=nan" not in result.output and "Traceback" not in result.output
+
+
+def test_calibrate_refuses_an_error_larger_than_the_object():
+    result = run("calibrate", "lookahead", "--measured-error", "1e300")
+    assert result.exit_code == 2 and "larger than half the calibration object" in result.output
+
+
+@pytest.mark.parametrize("value", ["nan", "inf"])
+def test_set_refuses_non_finite_settings(tmp_path, value):
+    result = run("slice", write(tmp_path, "cube(5);"), "-o", tmp_path / "o.gcode", "--set", f"lookahead_mm={value}")
+    assert result.exit_code == 2 and "setting 'lookahead_mm'" in result.output and "finite number" in result.output
+    assert not (tmp_path / "o.gcode").exists()
+
+
+def test_deeply_nested_materials_and_profiles_are_refused(tmp_path):
+    (tmp_path / "deep.json").write_text("[" * 100_000 + "]" * 100_000)
+    result = run("slice", write(tmp_path, "cube(5);"), "-o", tmp_path / "o.gcode", "--materials", tmp_path / "deep.json")
+    assert result.exit_code == 2 and "nests arrays or objects too deeply" in result.output
+    (tmp_path / "deep.toml").write_text("bed_x = " + "[" * 100_000 + "]" * 100_000 + "\n")
+    result = run("slice", write(tmp_path, "cube(5);"), "-o", tmp_path / "o.gcode", "--profile", tmp_path / "deep.toml")
+    assert result.exit_code == 2 and "too deeply" in result.output
+
+
+@pytest.fixture(scope="module")
+def bar_gcode(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("bar")
+    design = write(folder, BAR)
+    result = run("slice", design, "-o", folder / "bar.gcode", "--colors", 8, "--set", "thumbnails=")
+    assert result.exit_code == 0, result.output
+    return folder / "bar.gcode", design
+
+
+def test_simulate_refuses_zero_colors(bar_gcode):
+    gcode, design = bar_gcode
+    result = run("simulate", gcode, "--design", design, "--colors", 0)
+    assert result.exit_code == 2 and "--colors" in result.output
+
+
+@pytest.mark.parametrize("other", [
+    'fgrade(["x/40 + 0.5", "0.5 - x/40"], ["red", "blue"]) { translate(0,0,1) { rectprism(20, 20, 2); } }',
+    'fgrade(["x/40 + 0.5", "0.5 - x/40"], ["red", "blue"]) { cube(10); }',
+    'fgrade(["x/40 + 0.5", "0.5 - x/40"], ["green", "blue"]) { translate(0,0,1) { rectprism(40, 20, 2); } }',
+], ids=["half the bar", "a cube", "other materials"])
+def test_simulate_refuses_a_design_the_gcode_was_not_sliced_from(bar_gcode, tmp_path, other):
+    gcode, design = bar_gcode
+    assert run("simulate", gcode, "--design", design).exit_code == 0
+    result = run("simulate", gcode, "--design", write(tmp_path, other))
+    assert result.exit_code == 2 and "pass the design the G-code was sliced from" in result.output, result.output

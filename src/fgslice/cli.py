@@ -8,6 +8,7 @@ no partial output file.
 from __future__ import annotations
 
 import json
+import math
 import os
 import sys
 import traceback
@@ -24,6 +25,20 @@ def _fail(error: FgsliceError) -> None:
     click.echo(error.format(), err=True)
     sys.exit(error.exit_code)
 
+
+class _Finite(click.ParamType):
+    """A float option that refuses NaN and infinities (which pass every range check)."""
+
+    name = "float"
+
+    def convert(self, value, param, ctx):
+        number = click.FLOAT.convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        return number
+
+
+FINITE = _Finite()
 
 INTERNAL_ERROR_EXIT = 70
 """Exit status of an unexpected exception (``EX_SOFTWARE``): a bug, not bad input."""
@@ -85,7 +100,7 @@ def _write_json(path: Path, data: dict) -> None:
 @click.option("--profile", help="Built-in profile name (see 'fgslice profiles') or a TOML file.")
 @click.option("--strategy", type=click.Choice(["1", "2"]), help="1: walls/skins/infill cut into colors; 2: faces filled densely.")
 @click.option("--colors", type=int, help="Palette size N.")
-@click.option("--layer-height", type=float, help="Layer height h, mm.")
+@click.option("--layer-height", type=FINITE, help="Layer height h, mm.")
 @click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="Override any setting (repeatable).")
 @click.option("--materials", type=click.Path(dir_okay=False, path_type=Path), help="Material library JSON.")
 @click.option("--stats", "stats_path", type=click.Path(dir_okay=False, path_type=Path), help="Write statistics as JSON.")
@@ -252,8 +267,8 @@ def verify_command(gcode, profile, sets):
 @click.option("--materials", type=click.Path(dir_okay=False, path_type=Path), help="Material library JSON.")
 @click.option("--profile", help="Machine profile (default: the settings recorded in the G-code).")
 @click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="Override any setting (e.g. tau_s, mixing_share).")
-@click.option("--melt-volume", type=float, help="Melt chamber volume V_melt, mm^3 (default: the profile's).")
-@click.option("--colors", type=int, help="Palette size for the half-bin metric (default: from the G-code).")
+@click.option("--melt-volume", type=FINITE, help="Melt chamber volume V_melt, mm^3 (default: the profile's).")
+@click.option("--colors", type=click.IntRange(min=1), help="Palette size for the half-bin metric (default: from the G-code).")
 @click.option("--stats", "stats_path", type=click.Path(dir_okay=False, path_type=Path), help="Write the results as JSON.")
 @click.option("--png", "png_path", type=click.Path(dir_okay=False, path_type=Path), help="Draw the composition error over one layer.")
 @click.option("--layer", type=int, help="Layer for --png (default: the worst).")
@@ -298,10 +313,10 @@ def calibrate_group():
 @click.option("--profile", help="Machine profile.")
 @click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="Override any setting.")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), help="Write the calibration object's G-code here.")
-@click.option("--measured-error", type=float, help="Distance e_x (mm) between the object's midpoint and where the color change appeared.")
-@click.option("--segment-length", type=float, default=20.0, show_default=True, help="Length L_y of one serpentine line, mm.")
-@click.option("--bead-width", type=float, help="Bead width w, mm (default: the profile's).")
-@click.option("--melt-volume", type=float, help="Known melt chamber volume V_melt, mm^3.")
+@click.option("--measured-error", type=FINITE, help="Distance e_x (mm) between the object's midpoint and where the color change appeared.")
+@click.option("--segment-length", type=FINITE, default=20.0, show_default=True, help="Length L_y of one serpentine line, mm.")
+@click.option("--bead-width", type=FINITE, help="Bead width w, mm (default: the profile's).")
+@click.option("--melt-volume", type=FINITE, help="Known melt chamber volume V_melt, mm^3.")
 def calibrate_lookahead(profile, sets, output, measured_error, segment_length, bead_width, melt_volume):
     """Print Appendix A's calibration object (-o) or compute the look-ahead distance."""
     from fgslice.analysis.calibrate import lookahead_advice, write_calibration
@@ -327,7 +342,7 @@ def calibrate_lookahead(profile, sets, output, measured_error, segment_length, b
 @click.argument("gcode", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path), help="PNG file to write.")
 @click.option("--layer", type=int, help="Layer number (0-based; default: the middle layer).")
-@click.option("--z", "z", type=float, help="Draw the layer nearest this height, mm.")
+@click.option("--z", "z", type=FINITE, help="Draw the layer nearest this height, mm.")
 @click.option("--design", "design_path", type=click.Path(dir_okay=False, path_type=Path), help="Draw the design's field at that height beside it.")
 @click.option("--materials", type=click.Path(dir_okay=False, path_type=Path), help="Material library JSON (for the header's materials and --design).")
 @click.option("--travel", is_flag=True, help="Draw travel moves too.")
