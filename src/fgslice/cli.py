@@ -10,7 +10,9 @@ from __future__ import annotations
 import json
 import math
 import os
+import shutil
 import sys
+import tempfile
 import traceback
 from pathlib import Path
 
@@ -49,8 +51,14 @@ class _Group(click.Group):
     of tracebacks (``FGSLICE_TRACEBACK=1`` shows the traceback of an unexpected one)."""
 
     def invoke(self, ctx: click.Context):
+        from fgslice.interrupts import Terminated, raise_on_termination
+
         try:
-            return super().invoke(ctx)
+            with raise_on_termination():
+                return super().invoke(ctx)
+        except Terminated as stop:
+            click.echo(f"terminated ({stop.args[0]}): no output file was written or changed", err=True)
+            sys.exit(128 + stop.signum)
         except FgsliceError as error:
             if os.environ.get("FGSLICE_TRACEBACK") and error.__cause__ is not None:
                 traceback.print_exception(error)  # an unexpected error reported as a refusal: its frames
@@ -96,7 +104,7 @@ def _write_json(path: Path, data: dict) -> None:
 
 @main.command("slice")
 @click.argument("design", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), help="G-code file to write (default: DESIGN with .gcode).")
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), help="G-code file to write (default: DESIGN with .gcode; '-': standard output).")
 @click.option("--profile", help="Built-in profile name (see 'fgslice profiles') or a TOML file.")
 @click.option("--strategy", type=click.Choice(["1", "2"]), help="1: walls/skins/infill cut into colors; 2: faces filled densely.")
 @click.option("--colors", type=int, help="Palette size N.")
@@ -109,13 +117,31 @@ def _write_json(path: Path, data: dict) -> None:
 @click.option("--scheduler", help="Run layers on a Dask scheduler at this address.")
 def slice_command(design, output, profile, strategy, colors, layer_height, sets, materials, stats_path, report_path, jobs, scheduler):
     """Slice DESIGN (.vcad, or an OpenVCAD .py script) to printer-ready G-code."""
+    output = output or design.with_suffix(".gcode")
+    settings = _settings(profile, sets, {"strategy": strategy, "colors": colors, "layer_height": layer_height})
+    if output == Path("-"):  # sliced to a temporary file, verified, then copied to stdout
+        with tempfile.TemporaryDirectory(prefix="fgslice-") as folder:
+            gcode = Path(folder) / design.with_suffix(".gcode").name
+            _slice(design, gcode, settings, materials, stats_path, report_path, jobs, scheduler, "<stdout>")
+            try:
+                with open(gcode, "rb") as handle:
+                    shutil.copyfileobj(handle, sys.stdout.buffer)
+                sys.stdout.buffer.flush()
+            except BrokenPipeError:  # the reader stopped early (| head): as other Unix tools, quietly
+                os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+                sys.exit(1)
+        return
+    _slice(design, output, settings, materials, stats_path, report_path, jobs, scheduler, str(output))
+
+
+def _slice(design: Path, output: Path, settings, materials, stats_path, report_path, jobs, scheduler, shown: str) -> None:
+    """:func:`slice_command` once the settings are loaded: slice to the file ``output``
+    and print the summary (on stderr when the G-code goes to stdout)."""
     from fgslice.compat import open_design as load_design
     from fgslice.output import check_writable
     from fgslice.pipeline import slice_to_gcode
     from fgslice.preview.thumbnails import parse_sizes, render_thumbnails
 
-    output = output or design.with_suffix(".gcode")
-    settings = _settings(profile, sets, {"strategy": strategy, "colors": colors, "layer_height": layer_height})
     check_writable(output, inputs=(design, materials))
     for extra in (stats_path, report_path):
         if extra:
@@ -133,20 +159,20 @@ def slice_command(design, output, profile, strategy, colors, layer_height, sets,
     if stats_path:
         _write_json(stats_path, s)
     if report_path:
-        _write_report(report_path, result, settings, loaded)
+        _write_report(report_path, result, settings, loaded, err=shown == "<stdout>")
     for warning in s["warnings"]:
         click.echo(f"warning: {warning}", err=True)
     tower = f", tower {s['tower_mm3'] / 1000:.2f} cm3 / {s['tower_g']:.1f} g" if s["tower_mm3"] else ""
     if s["simulated_within_half_bin"] is not None:
         tower += f" ({s['simulated_within_half_bin']:.1%} of the part simulated within half a bin)"
     click.echo(
-        f"{output}: {s['layers']} layers, {s['colors']} colors, {s['extruded_mm3'] / 1000:.2f} cm3, "
+        f"{shown}: {s['layers']} layers, {s['colors']} colors, {s['extruded_mm3'] / 1000:.2f} cm3, "
         f"{s['state_changes']} state changes{tower}, print {_duration(s['estimated_time_s'])}, "
-        f"sliced in {s['elapsed_s']:.2f} s"
+        f"sliced in {s['elapsed_s']:.2f} s", err=shown == "<stdout>"
     )
 
 
-def _write_report(path: Path, result, settings, design) -> None:
+def _write_report(path: Path, result, settings, design, err: bool = False) -> None:
     """The HTML report of a finished slice, with its simulated fidelity."""
     from fgslice.analysis.fidelity import fidelity, simulation_stats
     from fgslice.analysis.simulate import simulate
@@ -160,7 +186,7 @@ def _write_report(path: Path, result, settings, design) -> None:
         path, stats=result.stats, settings=settings, palette=palette, dialect=dialect_for(settings, palette),
         program=result.output, design=design, fidelity=simulation_stats(simulated, fidelity(simulated)),
     )
-    click.echo(f"{path}: report written")
+    click.echo(f"{path}: report written", err=err)
 
 
 def _duration(seconds: float) -> str:

@@ -30,7 +30,7 @@ from typing import Any
 
 from fgslice.errors import SliceError
 from fgslice.heap import retain_freed_memory
-from fgslice.interrupts import sigint_held
+from fgslice.interrupts import default_termination, sigint_held
 
 _STATE: Any = None
 _SLOTS: "_ResultSlots | None" = None
@@ -43,6 +43,7 @@ def _init_worker(state: Any, parent: int, slots: "_ResultSlots | None") -> None:
     keeps computing)."""
     global _STATE, _SLOTS
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    default_termination()
     _die_with_parent(parent)
     retain_freed_memory()
     _STATE, _SLOTS = state, slots
@@ -138,6 +139,7 @@ _END = "__end__"
 def _consume(fn: Callable[..., Any], conn: Any, parent: int, args: tuple) -> None:
     """The consumer process: run ``fn`` over the messages, send back its outcome."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    default_termination()
     _die_with_parent(parent)
     retain_freed_memory()
 
@@ -427,8 +429,10 @@ def _map_pool(fn, state, items, jobs, window) -> Iterator[Any]:
     else:
         submit, receive = (lambda run: pool.submit(_call, fn, run)), (lambda future: future.result())
     pending: deque = deque()
+    finished = False
     try:  # the first submission forks the workers
         yield from _in_order(submit, receive, runs, window, pending, _forking())
+        finished = True
     except BrokenProcessPool:
         raise SliceError(
             "a worker process died while slicing (killed, or out of memory); no output was written",
@@ -437,6 +441,9 @@ def _map_pool(fn, state, items, jobs, window) -> Iterator[Any]:
     finally:
         for future in pending:
             future.cancel()
+        if not finished:  # stopped early (an error, Ctrl-C, SIGTERM): the runs in flight are not awaited
+            for process in list((getattr(pool, "_processes", None) or {}).values()):
+                process.terminate()
         pool.shutdown(wait=True, cancel_futures=True)
         if slots:
             slots.close()

@@ -40,3 +40,43 @@ def sigint_held() -> Iterator[None]:
         signal.signal(signal.SIGINT, previous)
         if noted:
             signal.raise_signal(signal.SIGINT)
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM or SIGHUP (``timeout``, a closed terminal, a service manager), raised in
+    the main thread like a Ctrl-C, so that the same cleanup runs (no temporary file left,
+    workers stopped). ``signum`` is the signal's number."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+TERMINATING = (signal.SIGTERM, signal.SIGHUP)
+"""The signals :func:`raise_on_termination` turns into :class:`Terminated`."""
+
+
+@contextlib.contextmanager
+def raise_on_termination() -> Iterator[None]:
+    """Over the block, SIGTERM and SIGHUP raise :class:`Terminated` in the main thread (in
+    any other thread the block runs as it is); the previous handlers are put back after.
+    Processes forked meanwhile put the default action back (:func:`default_termination`)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        raise Terminated(signum)
+
+    previous = {signum: signal.signal(signum, handler) for signum in TERMINATING}
+    try:
+        yield
+    finally:
+        for signum, action in previous.items():
+            signal.signal(signum, action)
+
+
+def default_termination() -> None:
+    """SIGTERM and SIGHUP end this process at once again (in forked workers)."""
+    for signum in TERMINATING:
+        signal.signal(signum, signal.SIG_DFL)
