@@ -21,7 +21,7 @@ from collections.abc import Iterable
 from fgslice.errors import SliceError
 from fgslice.toolpaths.paths import Path, Role, bead_area
 
-VOLUME_TOLERANCE = 0.05
+VOLUME_TOLERANCE = 0.03
 """Strategy 2 warns when the part's extruded volume is further than this share from its sections'."""
 
 UNCOVERED_SHARE = 0.01
