@@ -1,6 +1,7 @@
 """Shared fixtures: paths to the project's examples and to the shared test meshes, a local
 Dask cluster; a comparison of layer plans step by step."""
 
+import os
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -11,7 +12,21 @@ from fgslice.planning.plan import SetState
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
-SHARED_DATA = ROOT.parent / "shared" / "data"
+
+
+def _shared_data() -> Path:
+    """The shared test data: ``$FGSLICE_SHARED_DATA``, else the first ``shared/data``
+    folder beside the repository or beside one of its parent folders (CI puts ``shared/``
+    beside the clone; a checkout in a subfolder finds it further up)."""
+    if os.environ.get("FGSLICE_SHARED_DATA"):
+        return Path(os.environ["FGSLICE_SHARED_DATA"])
+    for folder in ROOT.parents:
+        if (folder / "shared" / "data").is_dir():
+            return folder / "shared" / "data"
+    return ROOT.parent / "shared" / "data"
+
+
+SHARED_DATA = _shared_data()
 
 
 @pytest.fixture

@@ -11,16 +11,18 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from conftest import SHARED_DATA
 from fgslice.cli import main
 from fgslice.design import api, load_design
 from fgslice.pipeline import slice_to_gcode
 from fgslice.settings import load_settings
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
-SHARED_BENCHY = EXAMPLES.parents[1] / "shared" / "data" / "meshes" / "3DBenchy.stl"
+SHARED_BENCHY = SHARED_DATA / "meshes" / "3DBenchy.stl"
 SLAB_MM = 1.0
 
 NATURAL = {
@@ -33,9 +35,11 @@ NATURAL = {
 
 
 def bottom_slab(path: Path):
-    """The example cut to its lowest ``SLAB_MM`` millimetre (same fields, same frame)."""
+    """The example cut to its lowest ``SLAB_MM`` millimetre (same fields, same frame); the
+    bounding box may reach below the part (a difference keeps its first body's box)."""
     design = load_design(path)
-    (x0, y0, z0), (x1, y1, _) = design.bounds()
+    (x0, y0, z0), (x1, y1, z1) = design.bounds()
+    z0 = next(z for z in np.arange(z0, z1, 0.05) if design.section(z + 0.05).area > 0)
     slab = api.translate(((x0 + x1) / 2, (y0 + y1) / 2, z0 + SLAB_MM / 2),
                          api.rectprism(x1 - x0 + 2, y1 - y0 + 2, SLAB_MM))
     return api.design(api.intersection(design.root, slab))
@@ -114,3 +118,51 @@ def test_verify_refuses_what_is_not_gcode(tmp_path):
     for path, words in ((binary, "binary"), (tmp_path / "missing.gcode", "No such file")):
         result = run("verify", path)
         assert result.exit_code == 2 and words in result.stderr and "Traceback" not in result.stderr
+
+
+MISSED = {
+    "words without blanks": ("G1X500Y500E0.1", "leaves the build volume"),
+    "full circle off the bed": ("G2 X{x} Y{y} I-200 J0 E1", "arc sweeps through X-"),
+    "longer arc by radius": ("G2 X{x2} Y{y} R-150 E1", "arc sweeps through"),
+    "absurd E": ("G1 X{x2} Y{y} E1e308", "E value 1e+308 is out of range"),
+}
+
+
+@pytest.mark.parametrize("name", MISSED)
+def test_verify_catches_moves_written_unusually(name, sliced, tmp_path):
+    bad, words = MISSED[name]
+    lines = sliced.read_text().splitlines()
+    at = next(i for i, line in enumerate(lines) if line.startswith(";LAYER_CHANGE")) + 3
+    x, y = next((float(m[1]), float(m[2])) for line in lines[at:] if (m := re.match(r"G1 X(\S+) Y(\S+)", line)))
+    bad = bad.format(x=x, y=y, x2=x + 20)
+    broken = tmp_path / "broken.gcode"
+    broken.write_text("\n".join(lines[:at] + [bad] + lines[at:]) + "\n")
+    result = run("verify", broken)
+    assert result.exit_code == 1, result.stdout + result.stderr
+    listed = re.findall(r"^  line (\d+): (.*)$", result.stdout, flags=re.M)
+    assert any(n == str(at + 1) and words in m for n, m in listed), result.stdout
+    assert "not a finite number" not in result.stdout  # each is a number, if an absurd one
+
+
+FINE = ["M117 Printing... 50%", "M118 E1 X1000 hello", "M23 /X500E5.gco", "N1 G1 X10 Y10*35",
+        "N2 G1 X10 Y10 ; moved*12", "SET_FAN_SPEED FAN=nozzle SPEED=0.5", "G2 X{x} Y{y} I5 J0",
+        "G1X{x}Y{y}"]
+
+
+@pytest.mark.parametrize("line", FINE)
+def test_verify_accepts_messages_checksums_and_sound_arcs(line, sliced, tmp_path):
+    lines = sliced.read_text().splitlines()
+    at = next(i for i, text in enumerate(lines) if text.startswith(";LAYER_CHANGE")) + 3
+    x, y = next((float(m[1]), float(m[2])) for text in lines[at:] if (m := re.match(r"G1 X(\S+) Y(\S+)", text)))
+    edited = tmp_path / "edited.gcode"
+    edited.write_text("\n".join(lines[:at] + [line.format(x=x, y=y)] + lines[at:]) + "\n")
+    result = run("verify", edited)
+    assert result.exit_code == 0, result.stdout + result.stderr
+
+
+def test_verify_toolchanger_flags_mixing_commands(sliced):
+    """The dogbone is sliced for the mixing hotend: its M165 lines have no place on a toolchanger."""
+    result = run("verify", sliced, "--profile", "toolchanger")
+    assert result.exit_code == 1
+    assert "M165: a mixing command, but the toolchanger machine has no mixing hotend" in result.stdout
+    assert run("verify", sliced).exit_code == 0

@@ -8,8 +8,12 @@ no partial output file.
 from __future__ import annotations
 
 import json
+import math
 import os
+import shutil
 import sys
+import tempfile
+import traceback
 from pathlib import Path
 
 import click
@@ -24,6 +28,20 @@ def _fail(error: FgsliceError) -> None:
     sys.exit(error.exit_code)
 
 
+class _Finite(click.ParamType):
+    """A float option that refuses NaN and infinities (which pass every range check)."""
+
+    name = "float"
+
+    def convert(self, value, param, ctx):
+        number = click.FLOAT.convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        return number
+
+
+FINITE = _Finite()
+
 INTERNAL_ERROR_EXIT = 70
 """Exit status of an unexpected exception (``EX_SOFTWARE``): a bug, not bad input."""
 
@@ -33,9 +51,17 @@ class _Group(click.Group):
     of tracebacks (``FGSLICE_TRACEBACK=1`` shows the traceback of an unexpected one)."""
 
     def invoke(self, ctx: click.Context):
+        from fgslice.interrupts import Terminated, raise_on_termination
+
         try:
-            return super().invoke(ctx)
+            with raise_on_termination():
+                return super().invoke(ctx)
+        except Terminated as stop:
+            click.echo(f"terminated ({stop.args[0]}): no output file was written or changed", err=True)
+            sys.exit(128 + stop.signum)
         except FgsliceError as error:
+            if os.environ.get("FGSLICE_TRACEBACK") and error.__cause__ is not None:
+                traceback.print_exception(error)  # an unexpected error reported as a refusal: its frames
             _fail(error)
         except KeyboardInterrupt:
             click.echo("interrupted: no output file was written or changed", err=True)
@@ -78,11 +104,11 @@ def _write_json(path: Path, data: dict) -> None:
 
 @main.command("slice")
 @click.argument("design", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), help="G-code file to write (default: DESIGN with .gcode).")
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), help="G-code file to write (default: DESIGN with .gcode; '-': standard output).")
 @click.option("--profile", help="Built-in profile name (see 'fgslice profiles') or a TOML file.")
 @click.option("--strategy", type=click.Choice(["1", "2"]), help="1: walls/skins/infill cut into colors; 2: faces filled densely.")
 @click.option("--colors", type=int, help="Palette size N.")
-@click.option("--layer-height", type=float, help="Layer height h, mm.")
+@click.option("--layer-height", type=FINITE, help="Layer height h, mm.")
 @click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="Override any setting (repeatable).")
 @click.option("--materials", type=click.Path(dir_okay=False, path_type=Path), help="Material library JSON.")
 @click.option("--stats", "stats_path", type=click.Path(dir_okay=False, path_type=Path), help="Write statistics as JSON.")
@@ -91,13 +117,31 @@ def _write_json(path: Path, data: dict) -> None:
 @click.option("--scheduler", help="Run layers on a Dask scheduler at this address.")
 def slice_command(design, output, profile, strategy, colors, layer_height, sets, materials, stats_path, report_path, jobs, scheduler):
     """Slice DESIGN (.vcad, or an OpenVCAD .py script) to printer-ready G-code."""
+    output = output or design.with_suffix(".gcode")
+    settings = _settings(profile, sets, {"strategy": strategy, "colors": colors, "layer_height": layer_height})
+    if output == Path("-"):  # sliced to a temporary file, verified, then copied to stdout
+        with tempfile.TemporaryDirectory(prefix="fgslice-") as folder:
+            gcode = Path(folder) / design.with_suffix(".gcode").name
+            _slice(design, gcode, settings, materials, stats_path, report_path, jobs, scheduler, "<stdout>")
+            try:
+                with open(gcode, "rb") as handle:
+                    shutil.copyfileobj(handle, sys.stdout.buffer)
+                sys.stdout.buffer.flush()
+            except BrokenPipeError:  # the reader stopped early (| head): as other Unix tools, quietly
+                os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+                sys.exit(1)
+        return
+    _slice(design, output, settings, materials, stats_path, report_path, jobs, scheduler, str(output))
+
+
+def _slice(design: Path, output: Path, settings, materials, stats_path, report_path, jobs, scheduler, shown: str) -> None:
+    """:func:`slice_command` once the settings are loaded: slice to the file ``output``
+    and print the summary (on stderr when the G-code goes to stdout)."""
     from fgslice.compat import open_design as load_design
     from fgslice.output import check_writable
     from fgslice.pipeline import slice_to_gcode
     from fgslice.preview.thumbnails import parse_sizes, render_thumbnails
 
-    output = output or design.with_suffix(".gcode")
-    settings = _settings(profile, sets, {"strategy": strategy, "colors": colors, "layer_height": layer_height})
     check_writable(output, inputs=(design, materials))
     for extra in (stats_path, report_path):
         if extra:
@@ -115,20 +159,20 @@ def slice_command(design, output, profile, strategy, colors, layer_height, sets,
     if stats_path:
         _write_json(stats_path, s)
     if report_path:
-        _write_report(report_path, result, settings, loaded)
+        _write_report(report_path, result, settings, loaded, err=shown == "<stdout>")
     for warning in s["warnings"]:
         click.echo(f"warning: {warning}", err=True)
     tower = f", tower {s['tower_mm3'] / 1000:.2f} cm3 / {s['tower_g']:.1f} g" if s["tower_mm3"] else ""
     if s["simulated_within_half_bin"] is not None:
         tower += f" ({s['simulated_within_half_bin']:.1%} of the part simulated within half a bin)"
     click.echo(
-        f"{output}: {s['layers']} layers, {s['colors']} colors, {s['extruded_mm3'] / 1000:.2f} cm3, "
+        f"{shown}: {s['layers']} layers, {s['colors']} colors, {s['extruded_mm3'] / 1000:.2f} cm3, "
         f"{s['state_changes']} state changes{tower}, print {_duration(s['estimated_time_s'])}, "
-        f"sliced in {s['elapsed_s']:.2f} s"
+        f"sliced in {s['elapsed_s']:.2f} s", err=shown == "<stdout>"
     )
 
 
-def _write_report(path: Path, result, settings, design) -> None:
+def _write_report(path: Path, result, settings, design, err: bool = False) -> None:
     """The HTML report of a finished slice, with its simulated fidelity."""
     from fgslice.analysis.fidelity import fidelity, simulation_stats
     from fgslice.analysis.simulate import simulate
@@ -144,7 +188,7 @@ def _write_report(path: Path, result, settings, design) -> None:
         path, stats=result.stats, settings=settings, palette=palette, dialect=dialect_for(settings, palette),
         program=result.output, design=design, fidelity=simulation_stats(simulated, fidelity(simulated)),
     )
-    click.echo(f"{path}: report written")
+    click.echo(f"{path}: report written", err=err)
 
 
 def _duration(seconds: float) -> str:
@@ -267,8 +311,8 @@ def verify_command(gcode, profile, sets):
 @click.option("--materials", type=click.Path(dir_okay=False, path_type=Path), help="Material library JSON.")
 @click.option("--profile", help="Machine profile (default: the settings recorded in the G-code).")
 @click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="Override any setting (e.g. tau_s, mixing_share).")
-@click.option("--melt-volume", type=float, help="Melt chamber volume V_melt, mm^3 (default: the profile's).")
-@click.option("--colors", type=int, help="Palette size for the half-bin metric (default: from the G-code).")
+@click.option("--melt-volume", type=FINITE, help="Melt chamber volume V_melt, mm^3 (default: the profile's).")
+@click.option("--colors", type=click.IntRange(min=1), help="Palette size for the half-bin metric (default: from the G-code).")
 @click.option("--stats", "stats_path", type=click.Path(dir_okay=False, path_type=Path), help="Write the results as JSON.")
 @click.option("--png", "png_path", type=click.Path(dir_okay=False, path_type=Path), help="Draw the composition error over one layer.")
 @click.option("--layer", type=int, help="Layer for --png (default: the worst).")
@@ -313,10 +357,10 @@ def calibrate_group():
 @click.option("--profile", help="Machine profile.")
 @click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help="Override any setting.")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), help="Write the calibration object's G-code here.")
-@click.option("--measured-error", type=float, help="Distance e_x (mm) between the object's midpoint and where the color change appeared.")
-@click.option("--segment-length", type=float, default=20.0, show_default=True, help="Length L_y of one serpentine line, mm.")
-@click.option("--bead-width", type=float, help="Bead width w, mm (default: the profile's).")
-@click.option("--melt-volume", type=float, help="Known melt chamber volume V_melt, mm^3.")
+@click.option("--measured-error", type=FINITE, help="Distance e_x (mm) between the object's midpoint and where the color change appeared.")
+@click.option("--segment-length", type=FINITE, default=20.0, show_default=True, help="Length L_y of one serpentine line, mm.")
+@click.option("--bead-width", type=FINITE, help="Bead width w, mm (default: the profile's).")
+@click.option("--melt-volume", type=FINITE, help="Known melt chamber volume V_melt, mm^3.")
 def calibrate_lookahead(profile, sets, output, measured_error, segment_length, bead_width, melt_volume):
     """Print Appendix A's calibration object (-o) or compute the look-ahead distance."""
     from fgslice.analysis.calibrate import lookahead_advice, write_calibration
@@ -342,7 +386,7 @@ def calibrate_lookahead(profile, sets, output, measured_error, segment_length, b
 @click.argument("gcode", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path), help="PNG file to write.")
 @click.option("--layer", type=int, help="Layer number (0-based; default: the middle layer).")
-@click.option("--z", "z", type=float, help="Draw the layer nearest this height, mm.")
+@click.option("--z", "z", type=FINITE, help="Draw the layer nearest this height, mm.")
 @click.option("--design", "design_path", type=click.Path(dir_okay=False, path_type=Path), help="Draw the design's field at that height beside it.")
 @click.option("--materials", type=click.Path(dir_okay=False, path_type=Path), help="Material library JSON (for the header's materials and --design).")
 @click.option("--travel", is_flag=True, help="Draw travel moves too.")

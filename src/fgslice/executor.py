@@ -20,6 +20,7 @@ import pickle
 import signal
 import sys
 import time
+import traceback
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor
@@ -29,7 +30,7 @@ from typing import Any
 
 from fgslice.errors import SliceError
 from fgslice.heap import retain_freed_memory
-from fgslice.interrupts import sigint_held
+from fgslice.interrupts import default_termination, sigint_held
 
 _STATE: Any = None
 _SLOTS: "_ResultSlots | None" = None
@@ -42,6 +43,7 @@ def _init_worker(state: Any, parent: int, slots: "_ResultSlots | None") -> None:
     keeps computing)."""
     global _STATE, _SLOTS
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    default_termination()
     _die_with_parent(parent)
     retain_freed_memory()
     _STATE, _SLOTS = state, slots
@@ -137,6 +139,7 @@ _END = "__end__"
 def _consume(fn: Callable[..., Any], conn: Any, parent: int, args: tuple) -> None:
     """The consumer process: run ``fn`` over the messages, send back its outcome."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    default_termination()
     _die_with_parent(parent)
     retain_freed_memory()
 
@@ -146,13 +149,42 @@ def _consume(fn: Callable[..., Any], conn: Any, parent: int, args: tuple) -> Non
 
     try:
         outcome = ("ok", fn(messages(), *args))
-    except Exception as exc:  # handed to the parent, which raises it
-        outcome = ("error", exc)
+    except Exception as exc:  # handed to the parent, which raises it with this process's frames
+        outcome = ("error", _WithTraceback(exc))
     try:
         conn.send(outcome)
     except Exception:  # an exception that does not pickle
-        conn.send(("error", SliceError(f"{type(outcome[1]).__name__}: {outcome[1]}")))
+        failed = outcome[1].exc
+        conn.send(("error", SliceError(f"{type(failed).__name__}: {failed}")))
     conn.close()
+
+
+class RemoteTraceback(Exception):
+    """The traceback of an exception raised in another process, as text: the cause of
+    that exception once it is raised here, so that a printed traceback shows both
+    processes' frames (what :class:`concurrent.futures.ProcessPoolExecutor` does for its
+    workers)."""
+
+    def __str__(self) -> str:
+        return self.args[0]
+
+
+class _WithTraceback:
+    """An exception and its traceback as text, pickled together; unpickled, the
+    exception with :class:`RemoteTraceback` as its cause."""
+
+    def __init__(self, exc: Exception) -> None:
+        self.exc = exc
+        self.text = "".join(traceback.format_exception(exc))
+
+    def __reduce__(self) -> tuple:
+        return _rebuild, (self.exc, self.text)
+
+
+def _rebuild(exc: Exception, text: str) -> Exception:
+    """``exc`` with its remote traceback ``text`` as its cause."""
+    exc.__cause__ = RemoteTraceback(f'\n"""\n{text}"""')
+    return exc
 
 
 def _run(fn: Callable[[Any, Any], Any], state: Any, run: list) -> list:
@@ -397,8 +429,10 @@ def _map_pool(fn, state, items, jobs, window) -> Iterator[Any]:
     else:
         submit, receive = (lambda run: pool.submit(_call, fn, run)), (lambda future: future.result())
     pending: deque = deque()
+    finished = False
     try:  # the first submission forks the workers
         yield from _in_order(submit, receive, runs, window, pending, _forking())
+        finished = True
     except BrokenProcessPool:
         raise SliceError(
             "a worker process died while slicing (killed, or out of memory); no output was written",
@@ -407,6 +441,9 @@ def _map_pool(fn, state, items, jobs, window) -> Iterator[Any]:
     finally:
         for future in pending:
             future.cancel()
+        if not finished:  # stopped early (an error, Ctrl-C, SIGTERM): the runs in flight are not awaited
+            for process in list((getattr(pool, "_processes", None) or {}).values()):
+                process.terminate()
         pool.shutdown(wait=True, cancel_futures=True)
         if slots:
             slots.close()

@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import os
+import stat
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -25,8 +26,9 @@ def check_writable(path: str | Path, *, inputs: tuple[str | Path, ...] = ()) -> 
     Returns ``path`` as a :class:`~pathlib.Path`; ``inputs`` entries may be None (skipped).
 
     Raises:
-        OutputError: the folder is missing or not writable, the path is a folder, or it
-            is one of ``inputs`` (fgslice never overwrites its input).
+        OutputError: the folder is missing or not writable, the path is a folder or
+            another file that is not regular (a device, a FIFO), or it is one of
+            ``inputs`` (fgslice never overwrites its input).
     """
     target = Path(path)
     resolved = target.resolve()
@@ -38,6 +40,7 @@ def check_writable(path: str | Path, *, inputs: tuple[str | Path, ...] = ()) -> 
             )
     if target.is_dir():
         raise OutputError(f"output '{target}' is a folder", hint="give a file name, e.g. -o part.gcode")
+    _refuse_special(target)
     folder = resolved.parent
     if not folder.is_dir():
         raise OutputError(f"cannot write '{target}': folder '{folder}' does not exist", hint="create it first")
@@ -76,6 +79,7 @@ def atomic_output(path: str | Path, mode: str = "w") -> Iterator[IO]:
             handle.flush()
             os.fsync(handle.fileno())
         os.chmod(tmp, 0o644)
+        _refuse_special(target)  # made since the output was checked
         os.replace(tmp, target)
     except OSError as exc:
         _discard(tmp)
@@ -83,6 +87,24 @@ def atomic_output(path: str | Path, mode: str = "w") -> Iterator[IO]:
     except BaseException:
         _discard(tmp)
         raise
+
+
+def _refuse_special(target: Path) -> None:
+    """Refuse an existing output that is not a regular file (a device, a FIFO, a socket):
+    replacing it by renaming a file over it would destroy it (``/dev/null`` as root), and
+    writing into it would not be atomic."""
+    try:
+        mode = target.stat().st_mode
+    except OSError:  # a new path (or a dangling symlink): a file is made there
+        return
+    if not stat.S_ISREG(mode):
+        kind = ("a character device" if stat.S_ISCHR(mode) else "a block device" if stat.S_ISBLK(mode)
+                else "a FIFO (named pipe)" if stat.S_ISFIFO(mode) else "a socket" if stat.S_ISSOCK(mode)
+                else "not a regular file")
+        raise OutputError(
+            f"output '{target}' is {kind}: fgslice only writes regular files (replaced whole when complete)",
+            hint="give a file name; '-o -' writes the G-code to standard output",
+        )
 
 
 def _discard(tmp: Path | None) -> None:

@@ -37,6 +37,7 @@ from pathlib import Path as FilePath
 import numpy as np
 import shapely
 
+from fgslice.coverage import check_coverage, mesh_warnings, part_volume
 from fgslice.design.base import Design
 from fgslice.design.color_mix import mix_colors
 from fgslice.errors import FgsliceError, SliceError
@@ -123,6 +124,8 @@ class LayerResult:
         reassigned_mm2: strategy 2's face area given to a neighbouring color, mm^2.
         colors: number of palette colors the layer's paths use.
         commanded: the toolpaths' attribute ranges (:attr:`LayerPaths.commanded`).
+        outline_mm2: the area of the layer's outline, mm^2.
+        part_mm3: the volume the layer's part paths deposit, mm^3 (:func:`part_volume`).
     """
 
     plan: LayerPlan
@@ -132,6 +135,8 @@ class LayerResult:
     reassigned_mm2: float = 0.0
     commanded: dict[str, tuple[float, float]] = field(default_factory=dict)
     support_mm3: float = 0.0
+    outline_mm2: float = 0.0
+    part_mm3: float = 0.0
 
 
 @dataclass
@@ -226,6 +231,7 @@ def _layer_result(job: SliceJob, index: int) -> LayerResult:
         paths, short = strategy1.layer_paths(regions, below, above, field_, job.palette, s)
     if job.fuzzy is not None:
         paths.paths = job.fuzzy.apply(paths.paths, i, z_top - height / 2)
+    part_mm3 = part_volume(paths.paths)
     support = support_paths(job.supports[index], s) if job.supports else []
     paths.paths += support
     if index == 0:
@@ -240,7 +246,8 @@ def _layer_result(job: SliceJob, index: int) -> LayerResult:
     prepare_bodies(plan, s, job.grading)
     result = LayerResult(plan=plan, short_pieces=short, uncovered_mm2=paths.uncovered_mm2, colors=colors,
                          reassigned_mm2=paths.reassigned_mm2, commanded=paths.commanded,
-                         support_mm3=support_volume(support))
+                         support_mm3=support_volume(support),
+                         outline_mm2=float(regions.outline.area), part_mm3=part_mm3)
     if repeats is not None:
         repeats.keep(regions, plan, result)
     return result
@@ -404,6 +411,7 @@ def slice_to_gcode(
         short_records: list[strategy1.ShortPieces] = []
         uncovered = [0.0]
         supported = [0.0]  # support volume, mm^3
+        covered = [0.0, 0.0, 0.0]  # the sections' volume and area, the part paths' volume
         reassigned = []  # (layer, mm^2) of the layers that gave slivers away
         commanded: dict[str, list[float]] = {}  # the toolpaths' attribute ranges
         total = len(layers)
@@ -414,6 +422,9 @@ def slice_to_gcode(
                     short_records.append(result.short_pieces)
                 uncovered[0] += result.uncovered_mm2
                 supported[0] += result.support_mm3
+                covered[0] += result.outline_mm2 * job.layers[done - 1][2]
+                covered[1] += result.outline_mm2
+                covered[2] += result.part_mm3
                 if result.reassigned_mm2 > 0:
                     reassigned.append((done - 1, result.reassigned_mm2))
                 for name, (low, high) in result.commanded.items():
@@ -472,6 +483,8 @@ def slice_to_gcode(
                     follower.send(size)
                     told = size
         stats = writer.finish()
+        coverage = check_coverage(covered[0], covered[1], covered[2], uncovered[0], settings.strategy,
+                                  settings.bead_width)
         handle.flush()
         if follower:
             os.fsync(handle.fileno())  # what is left of the disk write overlaps the verifier's last block
@@ -487,7 +500,9 @@ def slice_to_gcode(
     stats.setdefault("warnings", [])
     stats["warnings"] = list(stats["warnings"]) + strategy1.summarize_short_pieces(
         short_records, total, settings.min_segment_mm, palette.size
-    ) + _sliver_warning(reassigned, total, settings)
+    ) + _sliver_warning(reassigned, total, settings) + coverage
+    if settings.strategy == 2:  # whose sectioning built the whole meshes' tables already
+        stats["warnings"] += mesh_warnings(design)
     if settings.strategy == 2 and attributes is not None and "infill_density" in attributes.names:
         stats["warnings"].append("strategy 2 fills every face densely: the infill_density attribute is ignored")
     if isinstance(palette, StatePalette) and settings.dialect == "toolchanger" and settings.temperature_lead_s > 0:

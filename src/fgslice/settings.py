@@ -16,6 +16,7 @@ validation, 15-20 ms more.
 """
 
 import functools
+import math
 import tomllib
 import types
 import typing
@@ -229,6 +230,9 @@ def _read_toml(path: Path | None, text: str, label: str) -> dict[str, Any]:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SettingsError(f"{label} is not valid TOML: {exc}", file=path, hint="check quotes and '=' signs") from None
+    except RecursionError:
+        raise SettingsError(f"{label} nests arrays or tables too deeply to read", file=path,
+                            hint="a profile is flat key = value lines, with [sections]") from None
 
 
 def _profile_values(name_or_path: str, seen: tuple[str, ...] = ()) -> dict[str, Any]:
@@ -327,9 +331,15 @@ def _validated(values: dict[str, Any], origin: str) -> Settings:
     """``values`` as Settings (strings of numbers and booleans converted); a
     SettingsError naming the key, its value and the rule it breaks otherwise."""
     try:
-        return msgspec.convert(values, Settings, strict=False)
+        settings = msgspec.convert(values, Settings, strict=False)
     except msgspec.ValidationError as exc:
         message = str(exc)
+    else:
+        for key, value in settings.as_dict().items():
+            if isinstance(value, float) and not math.isfinite(value):  # NaN passes every bound
+                raise SettingsError(f"setting '{key}' = {value!r} is invalid ({origin}): it takes a finite number",
+                                    hint=f"its default is {getattr(_Fields(), key)!r}")
+        return settings
     unknown = message.removeprefix("Object contains unknown field `")
     if unknown != message:
         raise _unknown_key(unknown.partition("`")[0], origin) from None

@@ -88,6 +88,12 @@ def lookahead_advice(
     """
     w, h = settings.bead_width, settings.layer_height
     if measured_error_mm is not None:
+        if abs(measured_error_mm) > LENGTH_X / 2:
+            raise SettingsError(
+                f"measured error e_x = {measured_error_mm:g} mm is larger than half the calibration object "
+                f"({LENGTH_X:g} mm wide)",
+                hint="measure e_x on the printed object, from its midpoint to where the color changes, in mm",
+            )
         distance = lookahead_from_measurement(measured_error_mm, line_length_mm, w)
         lines = round(distance / line_length_mm)
         how = (f"e_x = {abs(measured_error_mm):g} mm: ceil(e_x / w = {w:g} mm) = {lines} lines "

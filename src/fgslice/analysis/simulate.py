@@ -34,7 +34,7 @@ from os import PathLike
 import numpy as np
 
 from fgslice.design.base import Design, Material
-from fgslice.errors import SettingsError, SliceError
+from fgslice.errors import DesignError, SettingsError, SliceError
 from fgslice.machine.gcode_header import GcodeHeader, parse_header, read_header
 from fgslice.slicing.layers import Placement
 
@@ -659,6 +659,13 @@ def simulate(
 
     design = mix_colors(design, settings)  # a colour attribute printed as filament mixtures
     header = GcodeHeader() if isinstance(gcode, GcodeProgram) else _header_of(gcode)
+    names = tuple(m.name for m in design.materials)
+    if header.materials and header.materials != names:
+        raise DesignError(
+            f"the G-code was sliced from a design of materials {', '.join(header.materials)}; this design has "
+            f"{', '.join(names)}",
+            hint="pass the design the G-code was sliced from (--design)",
+        )
     if settings.dialect == "temperature" and len(design.materials) != 2:
         raise SettingsError(
             f"the temperature dialect grades two materials; the design has {len(design.materials)}",
@@ -678,8 +685,22 @@ def simulate(
     # a toolchanger's tool n prints material color n (whatever the temperature level)
     centers = material_palette(palette).centers if settings.dialect == "toolchanger" else palette.centers
     trace = trace_from_chunks(chunks, settings, centers, travels=model.kind == "thermal")
-    return simulate_trace(trace, design, offset, model, palette_size=size, palette_kind=palette.kind,
-                          part_tolerance_mm=settings.bead_width / 2)
+    result = simulate_trace(trace, design, offset, model, palette_size=size, palette_kind=palette.kind,
+                            part_tolerance_mm=settings.bead_width / 2)
+    claimed = float(result.volume[trace.part[_extruding(trace)]].sum())
+    matched = float(result.volume[result.part].sum())
+    if claimed > 0 and matched < MATCHED_SHARE * claimed:
+        raise DesignError(
+            f"only {100 * matched / claimed:.0f} % of the G-code's part extrusion lies in this design (placed at "
+            f"offset {', '.join(f'{v + 0.0:g}' for v in offset)} mm): it was not sliced from it",
+            hint="pass the design the G-code was sliced from (--design)",
+        )
+    return result
+
+
+MATCHED_SHARE = 0.9
+""":func:`simulate` refuses a design that holds less than this share of the G-code's part
+extrusion (within half a bead): the G-code was sliced from another design."""
 
 
 def _header_of(gcode) -> GcodeHeader:

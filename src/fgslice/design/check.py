@@ -159,11 +159,13 @@ def check_design(design: Design, *, samples: int = DEFAULT_SAMPLES, settings=Non
         column = fractions[:, i]
         report.fraction_ranges[material.name] = (float(column.min()), float(column.max()))
     finite = np.isfinite(raw)
-    if not finite.all():
-        report.warnings.append(
-            f"raw fractions are NaN or infinite over {_share(~finite.all(axis=1))} of the part (treated as 0)"
-        )
-    raw = np.where(finite, raw, 0.0)
+    if np.isnan(raw).any():
+        report.warnings.append(f"raw fractions are NaN over {_share(np.isnan(raw).any(axis=1))} of the part "
+                               "(treated as 0)")
+    if np.isinf(raw).any():
+        report.warnings.append(f"raw fractions are infinite over {_share(np.isinf(raw).any(axis=1))} of the part "
+                               "(clamped: +inf counts as 1, -inf as 0)")
+    raw = np.nan_to_num(raw, nan=0.0, posinf=1.0, neginf=0.0)
     for i, material in enumerate(report.materials):
         outside = (raw[:, i] < -1e-9) | (raw[:, i] > 1 + 1e-9)
         if outside.any():

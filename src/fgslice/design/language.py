@@ -298,8 +298,9 @@ def resolve_mesh_path(name: str, base_dir: Path | None, where: nodes.Where = nod
             return candidate
     raise MeshError(
         f"mesh file not found: '{name}'",
-        hint="looked in " + ", ".join(str(c.parent) for c in candidates) + (" and the folders above the design's"
-                                                                            if above else ""),
+        hint="looked in " + ", ".join(str(c.parent.resolve()) for c in candidates)
+             + (" and the folders above the design's" if above else "")
+             + "; put the file there, or give its path (absolute, or relative to the design's folder)",
         **where.error_kwargs(),
     )
 

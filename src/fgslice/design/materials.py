@@ -124,4 +124,7 @@ def load_library(path: str | Path) -> MaterialLibrary:
         raise DesignError(
             f"materials file is not valid JSON: {exc.msg}", file=path, line=exc.lineno, column=exc.colno
         ) from None
+    except RecursionError:
+        raise DesignError("materials file nests arrays or objects too deeply to read", file=path,
+                          hint="a material library is a list of objects, two levels deep") from None
     return builtin_library().extended(_parse_library(data, str(path)))

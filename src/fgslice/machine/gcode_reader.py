@@ -25,6 +25,7 @@ from __future__ import annotations
 import io
 import math
 import os
+import re
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -36,6 +37,14 @@ from fgslice.errors import GcodeError
 
 MIX_LETTERS = "ABCDHI"
 
+TEXT_COMMANDS = frozenset({"M16", "M23", "M28", "M30", "M32", "M33", "M117", "M118", "M928",
+                           *(f"M{n}" for n in range(810, 820))})
+"""Marlin commands whose argument is text (a message, a file name, a macro), not words."""
+
+_CODE = re.compile(r"[GMT]\d+(\.\d+)?$")
+"""A command word the reader interprets the words of; others (Klipper's and hosts'
+extended commands, ``SET_FAN_SPEED FAN=...``) are kept as line numbers only."""
+
 
 @dataclass(frozen=True)
 class Fault:
@@ -43,6 +52,16 @@ class Fault:
 
     line: int
     message: str
+
+
+@dataclass(frozen=True)
+class ArcExtent:
+    """The XY box an arc (``G2``/``G3``) sweeps through, mm: ``lo = (x, y)``, ``hi = (x, y)``
+    (a full circle reaches its whole diameter, wherever its ends are)."""
+
+    line: int
+    lo: tuple[float, float]
+    hi: tuple[float, float]
 
 
 @dataclass(frozen=True)
@@ -128,6 +147,7 @@ class GcodeProgram:
     fans: list[ValueEvent] = field(default_factory=list)
     outputs: list[ValueEvent] = field(default_factory=list)
     faults: list[Fault] = field(default_factory=list)
+    arcs: list[ArcExtent] = field(default_factory=list)
     unknown_lines: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     line_count: int = 0
 
@@ -273,6 +293,39 @@ def _arc_lengths(start: np.ndarray, end: np.ndarray, i: np.ndarray, j: np.ndarra
     return np.where(np.isnan(r), by_center, np.where(rr > 0, by_radius, chord))
 
 
+def _arc_extents(start: np.ndarray, end: np.ndarray, i: np.ndarray, j: np.ndarray, r: np.ndarray,
+                 clockwise: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """XY boxes ``(lo, hi)`` ``(n, 2)`` swept by G2 (clockwise) / G3 arcs given by centre
+    offsets I J or radius R (negative: the longer arc), mm: the ends and the circle's
+    points at 0, 90, 180 and 270 degrees that lie on the arc. I J arcs whose ends meet are
+    full circles; an R arc whose chord is longer than its diameter is the chord."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        dx, dy = end[:, 0] - start[:, 0], end[:, 1] - start[:, 1]
+        chord = np.hypot(dx, dy)
+        rr = np.abs(r)
+        rise = np.sqrt(np.maximum(rr**2 - chord**2 / 4, 0.0))
+        side = np.where(clockwise, -1.0, 1.0) * np.where(r < 0, -1.0, 1.0)  # centre left of the chord: +1
+        by_radius = ~np.isnan(r)
+        cx = np.where(by_radius, (start[:, 0] + end[:, 0]) / 2 - side * rise * dy / chord,
+                      start[:, 0] + np.nan_to_num(i))
+        cy = np.where(by_radius, (start[:, 1] + end[:, 1]) / 2 + side * rise * dx / chord,
+                      start[:, 1] + np.nan_to_num(j))
+        radius = np.hypot(start[:, 0] - cx, start[:, 1] - cy)
+        a0 = np.arctan2(start[:, 1] - cy, start[:, 0] - cx)
+        a1 = np.arctan2(end[:, 1] - cy, end[:, 0] - cx)
+        sweep = np.mod(np.where(clockwise, a0 - a1, a1 - a0), 2 * np.pi)
+        sweep = np.where((sweep == 0) & ~by_radius, 2 * np.pi, sweep)
+        quarter = np.arange(4) * (np.pi / 2)
+        along = np.mod(np.where(clockwise[:, None], a0[:, None] - quarter, quarter - a0[:, None]), 2 * np.pi)
+        on_arc = (along <= sweep[:, None]) & np.isfinite(radius)[:, None] & ~(by_radius & ~(rr > 0))[:, None]
+        px = np.where(on_arc, cx[:, None] + radius[:, None] * np.cos(quarter), np.nan)
+        py = np.where(on_arc, cy[:, None] + radius[:, None] * np.sin(quarter), np.nan)
+    xs = np.column_stack([start[:, 0], end[:, 0], px])
+    ys = np.column_stack([start[:, 1], end[:, 1], py])
+    return (np.column_stack([np.nanmin(xs, axis=1), np.nanmin(ys, axis=1)]),
+            np.column_stack([np.nanmax(xs, axis=1), np.nanmax(ys, axis=1)]))
+
+
 class _Events:
     """The sequential part of reading: every line that is not a G0-G3 move.
 
@@ -371,7 +424,7 @@ class _Events:
         if not words:
             return
         cmd = words[0].upper()
-        if "=" in raw[:semi] if semi >= 0 else "=" in raw:  # Klipper's extended commands: NAME KEY=VALUE
+        if cmd in TEXT_COMMANDS or not _CODE.match(cmd):  # a message, a file name, a host macro, NAME KEY=VALUE
             self.unknown.append(num)
             return
         p = self._params(words, num)
@@ -681,6 +734,59 @@ def _general_words(padded: np.ndarray, starts: np.ndarray, ends: np.ndarray, fir
     return lid, text[pos] & 0xDF, values, valid
 
 
+def _long_number(line: str, letter: str) -> float | None:
+    """The finite value of the first word of axis ``letter`` of a move ``line`` (its code
+    part), or None when it is not a finite number."""
+    for word in line.split()[1:]:
+        if word[:1].upper() == letter:
+            if not _DECIMAL.match(word[1:]):
+                return None
+            value = float(word[1:])
+            return value if math.isfinite(value) else None
+    return None
+
+
+MAX_COORDINATE = 1e9
+"""Largest magnitude of a coordinate, extrusion or feed the reader takes (1000 km): a larger
+one is a fault (a sum of them would overflow)."""
+
+_DECIMAL = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$", re.ASCII)
+"""A decimal number as firmware reads it, with an exponent (ASCII digits only)."""
+
+
+def _cleaned(data: bytes, newlines: np.ndarray) -> bytes | None:
+    """``data`` with line numbers and checksums (``N12 G1 X10*35``: what a host adds when
+    it streams a file) removed and the words of a G command written without blanks
+    separated (``G1X10Y10`` -> ``G1 X10 Y10``, what firmware accepts), lines kept; None
+    when no line needs it. Lines are picked by their first bytes (and a ``*``), with
+    numpy, so that the usual file costs a few passes over its bytes."""
+    buf = np.frombuffer(data, dtype=np.uint8)
+    starts = np.concatenate([[0], newlines + 1])
+    starts = starts[starts < len(buf)]
+    padded = np.concatenate([buf, np.zeros(4, dtype=np.uint8)])
+    c0, c1, c2, c3 = (padded[starts + k] for k in range(4))
+    digit = [(c >= 48) & (c <= 57) for c in (c1, c2)]
+    upper = [(c >= 65) & (c <= 90) for c in (c2, c3)]
+    dirty = ((c0 | 0x20) == ord("n")) & digit[0]
+    dirty |= ((c0 | 0x20) == ord("g")) & digit[0] & (upper[0] | (digit[1] & upper[1]))
+    if b"*" in data:
+        dirty[np.searchsorted(newlines, np.flatnonzero(buf == ord("*")))] = True
+    if not dirty.any():
+        return None
+    ends = np.append(newlines, len(buf))[: len(starts)]
+    pieces, done = [], 0
+    for a, b in zip(starts[dirty].tolist(), ends[dirty].tolist()):
+        code, semi, comment = data[a:b].partition(b";")
+        code = re.sub(rb"^[Nn]\d+", lambda m: b" " * len(m.group(0)), code)  # blanked: no line ends up empty
+        code = re.sub(rb"\*\d+(?=[ \t\r]*$)", lambda m: b" " * len(m.group(0)), code)
+        if code.lstrip()[:1] in (b"G", b"g"):
+            code = re.sub(rb"(?<=[0-9.])(?=[A-Z])", b" ", code)
+        pieces += [data[done:a], code, semi, comment]
+        done = b
+    pieces.append(data[done:])
+    return b"".join(pieces)
+
+
 class _Reader:
     """Reads G-code chunk by chunk, carrying the machine's state from one chunk to the next:
     position (mm), E (mm) and its G92 offset, absolute/relative modes, feed rate, line
@@ -741,6 +847,10 @@ class _Reader:
         """The moves and events of ``data`` (whole lines following the previous chunk),
         whose newlines are at ``newlines``."""
         offset = self.line_count
+        cleaned = _cleaned(data, newlines)
+        if cleaned is not None:
+            data = cleaned
+            newlines = np.flatnonzero(np.frombuffer(data, dtype=np.uint8) == 10)
         buf = np.frombuffer(data, dtype=np.uint8)
         ends = newlines if buf[-1] == 10 else np.append(newlines, len(buf))
         starts = np.concatenate([[0], newlines + 1])[: len(ends)]
@@ -782,7 +892,12 @@ class _Reader:
         for i in np.flatnonzero(~valid).tolist():
             line = int(move_lines[rest_rows[i]])
             word = data[starts[line] : ends[line]].decode("utf-8", errors="replace").split(";")[0].strip()
-            faults.append(Fault(offset + line + 1, f"{word}: {chr(rest_letters[i])} value is not a finite number"))
+            value = _long_number(word, chr(rest_letters[i]))
+            if value is not None and abs(value) <= MAX_COORDINATE:  # a number the fast parser leaves out
+                rest_values[i], valid[i] = value, True
+                continue
+            what = "is not a finite number" if value is None else f"{value:g} is out of range (|value| > {MAX_COORDINATE:g})"
+            faults.append(Fault(offset + line + 1, f"{word}: {chr(rest_letters[i])} value {what}"))
         rows = np.concatenate([rows, rest_rows[valid]])
         letters = np.concatenate([letters, rest_letters[valid]])
         values = np.concatenate([values, rest_values[valid]])
@@ -801,9 +916,14 @@ class _Reader:
         code = (padded[first[move_lines] + 1] - ord("0")).astype(np.int64)
         length = np.hypot(end[:, 0] - start[:, 0], end[:, 1] - start[:, 1])
         arcs = code >= 2
+        arc_extents = []
         if arcs.any():
             length[arcs] = _arc_lengths(start[arcs], end[arcs], axis["I"][arcs], axis["J"][arcs], axis["R"][arcs],
                                         code[arcs] == 2)
+            lo, hi = _arc_extents(start[arcs], end[arcs], axis["I"][arcs], axis["J"][arcs], axis["R"][arcs],
+                                  code[arcs] == 2)
+            arc_extents = [ArcExtent(n, (x0, y0), (x1, y1)) for n, (x0, y0), (x1, y1)
+                           in zip(move_numbers[arcs].tolist(), lo.tolist(), hi.tolist())]
         moved = np.flatnonzero(~np.isnan(table[:4]).all(axis=0))  # rows with X, Y, Z or E
         changed = np.zeros(n_lines, dtype=np.int64)
         changed[np.array(events.lines, dtype=np.int64) - (offset + 1)] = 1
@@ -830,6 +950,7 @@ class _Reader:
             fans=events.fans,
             outputs=events.outputs,
             faults=sorted(faults, key=lambda f: f.line),
+            arcs=arc_extents,
             unknown_lines=np.array(events.unknown, dtype=np.int64),
             line_count=self.line_count,
         )
@@ -888,7 +1009,7 @@ def iter_gcode_blocks(blocks: Iterable[bytes], *, chunk_lines: int = CHUNK_LINES
 
 
 _ARRAY_FIELDS = ("start", "end", "e", "feed", "length", "line", "layer", "role", "state", "width", "unknown_lines")
-_EVENT_FIELDS = ("temperatures", "tools", "flows", "mixes", "fans", "outputs", "faults")
+_EVENT_FIELDS = ("temperatures", "tools", "flows", "mixes", "fans", "outputs", "faults", "arcs")
 
 
 def read_gcode(path_or_text: str | os.PathLike | bytes, *, chunk_lines: int = CHUNK_LINES) -> GcodeProgram:

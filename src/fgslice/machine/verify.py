@@ -5,7 +5,8 @@
 
 * numbers that are not finite (NaN, inf, garbage);
 * moves ending outside the build volume ``0..bed_x`` x ``0..bed_y`` x ``0..max_z``
-  (tolerance ``BED_TOLERANCE_MM``);
+  (tolerance ``BED_TOLERANCE_MM``), and arcs (``G2``/``G3``) sweeping outside its XY
+  area anywhere along the way;
 * extrusion per mm of XY travel ``E * filament_area / xy_length`` above
   ``max_cross_section_mm2`` (moves with XY length > 0; E as commanded, before M221);
   moves without XY motion (pure Z or pure E) extruding more than
@@ -20,7 +21,8 @@
   on other dialects;
 * mixes: ``M165`` factors outside [0, 1], not summing to 1 within ``MIX_SUM_TOLERANCE``,
   or set on a channel the machine lacks; ``M163`` factors outside [0, 1] or channels
-  it lacks; ``M42`` values outside 0..255;
+  it lacks; any mixing command (``M163``/``M164``/``M165``) on a toolchanger or a
+  temperature machine, which have no mixing hotend; ``M42`` values outside 0..255;
 * ``M106`` fan values outside 0..255.
 
 Consecutive faulty moves of one kind are reported once, at the first line, with the
@@ -133,6 +135,12 @@ class _Verifier:
                     f"{settings.bed_x:g} x {settings.bed_y:g} x {settings.max_z:g} mm")
 
         self.volume.add(program, bad, describe)
+        for arc in program.arcs:
+            (x0, y0), (x1, y1) = arc.lo, arc.hi
+            if min(x0, y0) < -BED_TOLERANCE_MM or x1 > limits[0] + BED_TOLERANCE_MM or y1 > limits[1] + BED_TOLERANCE_MM:
+                self.event_faults.append(Fault(arc.line, (
+                    f"arc sweeps through X{x0:.3f}..{x1:.3f} Y{y0:.3f}..{y1:.3f}, outside the build volume "
+                    f"{settings.bed_x:g} x {settings.bed_y:g} mm")))
 
     def _check_extrusion(self, program: GcodeProgram) -> None:
         settings = self.settings
@@ -208,6 +216,10 @@ def _check_events(program: GcodeProgram, settings: Settings) -> list[Fault]:
             what = f"tool_count = {tool_limit}" if toolchanger else f"channels = {tool_limit}"
             faults.append(Fault(t.line, f"T{n}: no such tool ({what})"))
     for m in program.mixes:
+        if settings.dialect in ("toolchanger", "temperature"):
+            faults.append(Fault(m.line, f"{m.command}: a mixing command, but the {settings.dialect} machine has "
+                                        "no mixing hotend (wrong profile, or a file for another machine)"))
+            continue
         faults += _mix_faults(m.line, m.command, m.values, settings.channels)
     for o in program.outputs:
         s = o.values.get("S")

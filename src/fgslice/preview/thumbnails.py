@@ -131,6 +131,8 @@ class _Grid:
     def from_sdf(cls, design: Design, lo: np.ndarray, hi: np.ndarray, points: int) -> _Grid:
         axes, step = cls._axes(lo, hi, points)
         values = np.asarray(design.sdf(axes[0][:, None, None], axes[1][None, :, None], axes[2][None, None, :]), float)
+        reach = float(np.linalg.norm(hi - lo))  # where the distance is not finite, outside (as the slicer)
+        values = np.nan_to_num(values, nan=reach, posinf=reach, neginf=-reach)
         return cls(lo, step, np.ascontiguousarray(np.broadcast_to(values, tuple(len(a) for a in axes))))
 
     @classmethod
@@ -488,7 +490,8 @@ def _fractions(design: Design, points: np.ndarray, planes: np.ndarray | None) ->
     of one plane find the body they belong to from its section, not a 3-D distance
     (:mod:`fgslice.design.membership`)."""
     if planes is None:
-        return np.asarray(design.fractions(points[:, 0], points[:, 1], points[:, 2]), dtype=float).reshape(len(points), -1)
+        values = design.fractions(points[:, 0], points[:, 1], points[:, 2])
+        return np.asarray(values, dtype=float).reshape(len(points), len(design.materials))
     heights, which = np.unique(planes, return_inverse=True)
     out = np.empty((len(points), len(design.materials)))
     for k, z in enumerate(heights):

@@ -130,6 +130,12 @@ def _bands_by_level(xs: np.ndarray, ys: np.ndarray, scaled: np.ndarray, n_bands:
     out = np.empty(n_bands, dtype=object)
     for i, (points, offsets, outer) in enumerate(gen.multi_filled(levels)):
         out[n_bands - 1 - i] = shapely.multipolygons(_ragged_polygons(points[0], offsets[0], outer[0]))
+    # a band narrower than the grid spacing comes back with rings touching or crossing
+    # themselves, which GEOS's overlays then get wrong (an intersection returning the
+    # whole layer): such bands are repaired first
+    invalid = ~shapely.is_valid(out)
+    if invalid.any():
+        out[invalid] = polygonal_each(shapely.make_valid(out[invalid]))
     return out
 
 
@@ -185,6 +191,34 @@ def _bands(xs: np.ndarray, ys: np.ndarray, values: np.ndarray, n_bands: int) -> 
     return _bands_by_level(xs, ys, scaled, n_bands)
 
 
+COARSEN_WIDTH = 1.5
+"""Bands narrower than a sample spacing on most of a layer are grouped into runs at least
+this many spacings wide (:func:`_palette_bands`)."""
+
+
+def _palette_bands(xs: np.ndarray, ys: np.ndarray, values: np.ndarray, n_bands: int) -> np.ndarray:
+    """:func:`_bands` of ``values``, or, where the palette is finer than the samples can
+    hold, bands grouped in runs (the others left empty).
+
+    The sample spacing is the bead width: a band narrower than that has no bead of its
+    own, and a layer of such bands would be handed, sliver by sliver, to one color (the
+    gradient lost). When the median change of the scaled value between neighbouring
+    samples exceeds one band, runs of ``k = ceil(COARSEN_WIDTH x that change)``
+    consecutive bands are traced as one band, given to the run's middle band: the layer
+    prints about ``n_bands / k`` colors, each about ``COARSEN_WIDTH`` beads wide or more,
+    each at most ``k / 2`` bands from the field (the median, not the maximum, so that a
+    sharp step in an otherwise gentle field is left to the slivers' handover).
+    """
+    change = np.median(np.hypot(*np.gradient(values * n_bands))) if min(values.shape) > 1 else 0.0
+    if not change > 1.0:
+        return _bands(xs, ys, values, n_bands)
+    k = int(np.ceil(COARSEN_WIDTH * change))
+    runs = -(-n_bands // k)
+    out = np.array([shapely.MultiPolygon() for _ in range(n_bands)], dtype=object)
+    out[np.minimum(np.arange(runs) * k + k // 2, n_bands - 1)] = _bands(xs, ys, values * n_bands / (k * runs), runs)
+    return out
+
+
 def _sampled_fractions(field: BedField, xs: np.ndarray, ys: np.ndarray, z: float) -> np.ndarray:
     """Fractions ``(len(ys), len(xs), k)`` on the grid; FieldError where they are not finite."""
     values = field.fractions_grid(xs, ys, z)
@@ -222,7 +256,7 @@ def color_faces(
     lo, hi = palette.band_range[..., 0], palette.band_range[..., 1]
     faces = None
     for i in range(values.shape[-1]):
-        bands = _bands(xs, ys, values[:, :, i], int(palette.band_counts[i]))
+        bands = _palette_bands(xs, ys, values[:, :, i], int(palette.band_counts[i]))
         strip = bands[lo[:, i]]
         for extra in range(1, int((hi[:, i] - lo[:, i]).max()) + 1):
             wide = hi[:, i] - lo[:, i] >= extra
