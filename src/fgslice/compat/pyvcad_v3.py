@@ -463,7 +463,7 @@ def dress(node: v2.Node, built: nodes.Node, above: frozenset[str]) -> nodes.Node
 
 def _resolver_channels(name: str, built: nodes.Node) -> list[str]:
     """The fgslice attribute names below ``built`` that the OpenVCAD attribute ``name`` became."""
-    from fgslice.design.attributes import ROLE_SPEEDS, AttributeFields
+    from fgslice.design.attributes import AttributeFields
 
     present = AttributeFields(built).names
     target = _fgslice_name(name)[0]

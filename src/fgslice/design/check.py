@@ -158,7 +158,6 @@ def check_design(design: Design, *, samples: int = DEFAULT_SAMPLES, settings=Non
     for i, material in enumerate(report.materials):
         column = fractions[:, i]
         report.fraction_ranges[material.name] = (float(column.min()), float(column.max()))
-    finite = np.isfinite(raw)
     if np.isnan(raw).any():
         report.warnings.append(f"raw fractions are NaN over {_share(np.isnan(raw).any(axis=1))} of the part "
                                "(treated as 0)")
@@ -207,7 +206,7 @@ def _check_machine(design: Design, settings, report: CheckReport) -> None:
 def _check_attributes(design: Design, x, y, z, settings, report: CheckReport) -> None:
     """Each attribute's range over the samples inside the part, and an error for each
     range the machine cannot command."""
-    from fgslice.design.attributes import INTENT_HINT, attribute_fields, drives, out_of_limits
+    from fgslice.design.attributes import attribute_fields, drives, out_of_limits
     from fgslice.settings import Settings
 
     fields = attribute_fields(design)

@@ -929,7 +929,6 @@ class GcodeWriter:
                 moves, length, self._wipe_end = wipe(points, s.wipe_mm, s.retract_length, retract_feed, travel_feed)
                 text += moves
                 self._travel_mm += length
-                self._time_s += length / s.travel_speed
             pieces[2 * k + 1] = text
 
     def _command_fan(self, fan: np.ndarray, pieces: list[str]) -> None:
