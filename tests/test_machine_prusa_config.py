@@ -250,7 +250,7 @@ def moonraker_metadata(path, folder) -> dict:
 
 @pytest.mark.parametrize("profile, sets", [
     ("marlin-mixing", {}), ("marlin-mixing-m163", {"channels": "3"}), ("toolchanger", {"colors": "3"}),
-    ("foam-lwpla", {}), ("foam-tpu", {}), ("template-diw", {}),
+    ("foam-lwpla", {}), ("foam-tpu", {}), ("template-diw", {}), ("klipper-mixing", {}), ("klipper-diw", {}),
 ])
 @pytest.mark.parametrize("materials", [1, 2])
 def test_moonraker_reads_weights_and_temperatures_for_every_profile(tmp_path, profile, sets, materials):
@@ -267,7 +267,7 @@ def test_moonraker_reads_weights_and_temperatures_for_every_profile(tmp_path, pr
     stats = slice_to_gcode(design, settings, path, jobs=1).stats
     meta = moonraker_metadata(path, tmp_path)
     tools = 3 if profile == "toolchanger" and materials == 2 else (
-        materials if settings.dialect.startswith("marlin-mixing") else 1)
+        materials if settings.dialect.startswith(("marlin-mixing", "klipper-mixing")) else 1)
     assert meta["filament_weight_total"] == pytest.approx(stats["filament_g"], abs=0.006)
     assert len(meta["filament_weights"]) == tools
     assert sum(meta["filament_weights"]) == pytest.approx(stats["filament_g"], abs=0.006 * tools)
