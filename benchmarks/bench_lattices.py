@@ -22,6 +22,7 @@ Run: ``.venv/bin/python benchmarks/bench_lattices.py [--rows bcc_bar,gyroid_cube
 from __future__ import annotations
 
 import argparse
+import os
 import shutil
 import sys
 import tempfile
@@ -31,7 +32,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from run_all import SINGLE_BENCHY_ARGS, byte_compile, fgslice_cmd, measure, median_run  # noqa: E402
 
-OPENVCAD_BAR = Path("/work/ref/OpenVCAD-Public/examples/lattices/4_graded_lattice_bar.py")
+OPENVCAD_BAR = Path(os.environ.get("FGSLICE_OPENVCAD", "OpenVCAD-Public")) / "examples" / "lattices" / "4_graded_lattice_bar.py"
+"""OpenVCAD's own bar, from the checkout ``$FGSLICE_OPENVCAD`` names; else the copy below."""
 
 BAR = """import pyvcad as pv
 import pyvcad_rendering as viz

@@ -5,7 +5,7 @@ https://git-lfs.github.com/spec/v1``, ``oid``, ``size``). :func:`examples_with_s
 copies the examples folder and writes in place of each mesh pointer a generated mesh of
 about the same size in bytes: an ellipsoid 40 x 20 x 10 mm (icosphere, as many
 subdivisions as the byte size suggests) centred at the origin; the 3DBenchy, when
-``/work/shared/data/meshes/3DBenchy.stl`` or ``BENCHY`` is at hand, is the real one.
+``shared/data/meshes/3DBenchy.stl`` beside a folder above this one, or ``$BENCHY``, is at hand, is the real one.
 CAD files (.step, .iges) and other pointers are left as they are (their examples need
 the CAD extra and the real files).
 """

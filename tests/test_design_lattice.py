@@ -5,6 +5,7 @@ and OpenVCAD 3's metamaterials scripts (the guide's catalog) sliced, STL export.
 from __future__ import annotations
 
 import math
+import os
 import textwrap
 from pathlib import Path
 
@@ -251,9 +252,11 @@ def test_metamaterials_catalog_scripts_slice_to_their_volume(script, tmp_path):
 
 
 def test_the_openvcad_2_lattice_examples_load(tmp_path):
-    examples = Path("/work/ref/OpenVCAD-Public/examples/lattices")
-    if not examples.is_dir():
-        pytest.skip("OpenVCAD's examples are not here")
+    """OpenVCAD's own lattice examples, from the checkout ``$FGSLICE_OPENVCAD`` names
+    (the public OpenVCAD-Public repository)."""
+    examples = Path(os.environ.get("FGSLICE_OPENVCAD", "")) / "examples" / "lattices"
+    if not os.environ.get("FGSLICE_OPENVCAD") or not examples.is_dir():
+        pytest.skip("set FGSLICE_OPENVCAD to an OpenVCAD-Public checkout")
     for name in ("1_unit_cells.py", "2_unit_cell_custom.py", "3_lattice_fill.py", "4_graded_lattice_bar.py"):
         design = load_script(examples / name)
         lo, hi = design.bounds()
