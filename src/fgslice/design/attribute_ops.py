@@ -29,16 +29,9 @@ import numpy as np
 from fgslice.design import nodes
 
 
-class AttributeOperator(nodes.Node):
-    """A node producing the attributes ``outputs`` over its child, which keeps its
-    geometry and materials."""
-
-    kind = "attribute_operator"
-    outputs: tuple[str, ...] = ()
-
-    def __init__(self, child: nodes.Node, where: nodes.Where = nodes.NOWHERE) -> None:
-        super().__init__((child,), where)
-        self._body = child
+class AttributeCarrier(nodes.Node):
+    """A node that adds attributes over ``_body`` (its child, or its children's union)
+    and keeps the body's geometry, as an fgrade does, and materials, as a transform does."""
 
     sdf = nodes.MaterialNode.sdf
     _bounds = nodes.MaterialNode._bounds
@@ -48,6 +41,18 @@ class AttributeOperator(nodes.Node):
 
     def raw(self, x, y, z, columns):
         return self._body.raw(x, y, z, columns)
+
+
+class AttributeOperator(AttributeCarrier):
+    """A node producing the attributes ``outputs`` over its child, which keeps its
+    geometry and materials."""
+
+    kind = "attribute_operator"
+    outputs: tuple[str, ...] = ()
+
+    def __init__(self, child: nodes.Node, where: nodes.Where = nodes.NOWHERE) -> None:
+        super().__init__((child,), where)
+        self._body = child
 
     def evaluate(self, fields, name: str, x, y, z, ctx: np.ndarray) -> np.ndarray:
         """Attribute ``name`` (one of :attr:`outputs`) at 1-D points; ``fields``: the

@@ -28,7 +28,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from fgslice.design import nodes
-from fgslice.design.attribute_ops import AttributeOperator
+from fgslice.design.attribute_ops import AttributeCarrier, AttributeOperator
 from fgslice.design.membership import owners
 from fgslice.errors import DesignError, did_you_mean
 
@@ -71,7 +71,7 @@ def canonical_name(name: str, where: nodes.Where = nodes.NOWHERE, any_name: bool
     return key
 
 
-class Attribute(nodes.Node):
+class Attribute(AttributeCarrier):
     """``attribute(name, field) { children }``: the process parameter ``name`` graded by
     ``field`` (this node's frame) over the children, which keep their geometry and
     materials (several children act as their union). ``any_name``: accept a name that
@@ -85,18 +85,6 @@ class Attribute(nodes.Node):
         self.name = canonical_name(name, where, any_name)
         self.field = field
         self._body = self.children[0] if len(self.children) == 1 else nodes.Union(self.children, where)
-
-    # geometry is the children's, as an fgrade's
-    sdf = nodes.MaterialNode.sdf
-    _bounds = nodes.MaterialNode._bounds
-    _sections = nodes.MaterialNode._sections
-
-    # materials are the children's, as under a transform
-    coordinate_free = nodes.Affine.coordinate_free
-    can_be_void = nodes.Affine.can_be_void
-
-    def raw(self, x, y, z, columns):
-        return self._body.raw(x, y, z, columns)
 
     def values(self, x, y, z) -> np.ndarray:
         """The field at points of this node's frame (1-D arrays), float64."""

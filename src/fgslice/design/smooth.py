@@ -24,18 +24,22 @@ def smooth_min(a, b, k: float):
     return np.minimum(a, b) - h * h * k / 4.0
 
 
-def _sampled(node, zs, spacing):
-    return [nodes.sampled_section(node, z, spacing) for z in zs]
-
-
-class SmoothUnion(nodes.Union):
-    """Union whose children blend into each other within ``k`` mm."""
-
-    kind = "smooth_union"
+class _Smoothed:
+    """What the smooth booleans share: the radius ``k`` (mm) before the children, and
+    sections traced on the combined distance."""
 
     def __init__(self, k: float, children, where: nodes.Where = nodes.NOWHERE) -> None:
         super().__init__(children, where)
         self.k = float(k)
+
+    def _sections(self, zs, spacing):
+        return [nodes.sampled_section(self, z, spacing) for z in zs]
+
+
+class SmoothUnion(_Smoothed, nodes.Union):
+    """Union whose children blend into each other within ``k`` mm."""
+
+    kind = "smooth_union"
 
     def sdf(self, x, y, z):
         return functools.reduce(lambda a, b: smooth_min(a, b, self.k), (c.sdf(x, y, z) for c in self.children))
@@ -44,36 +48,22 @@ class SmoothUnion(nodes.Union):
         lo, hi = super()._bounds()
         return lo - self.k / 4, hi + self.k / 4  # the fillet reaches at most k / 4 beyond the children
 
-    _sections = _sampled
 
-
-class SmoothIntersection(nodes.Intersection):
+class SmoothIntersection(_Smoothed, nodes.Intersection):
     """Intersection whose edges are rounded within ``k`` mm."""
 
     kind = "smooth_intersection"
 
-    def __init__(self, k: float, children, where: nodes.Where = nodes.NOWHERE) -> None:
-        super().__init__(children, where)
-        self.k = float(k)
-
     def sdf(self, x, y, z):
         return functools.reduce(lambda a, b: -smooth_min(-a, -b, self.k), (c.sdf(x, y, z) for c in self.children))
 
-    _sections = _sampled
 
-
-class SmoothDifference(nodes.Difference):
+class SmoothDifference(_Smoothed, nodes.Difference):
     """First child minus the others, the cut's edges rounded within ``k`` mm."""
 
     kind = "smooth_difference"
-
-    def __init__(self, k: float, children, where: nodes.Where = nodes.NOWHERE) -> None:
-        super().__init__(children, where)
-        self.k = float(k)
 
     def sdf(self, x, y, z):
         first = self.children[0].sdf(x, y, z)
         rest = functools.reduce(np.minimum, (c.sdf(x, y, z) for c in self.children[1:]))
         return -smooth_min(-first, rest, self.k)
-
-    _sections = _sampled
