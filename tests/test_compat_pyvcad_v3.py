@@ -15,7 +15,7 @@ import pytest
 from fgslice.compat.script import load_script
 from fgslice.design.attributes import attribute_fields
 from fgslice.design.check import check_design, format_report
-from fgslice.errors import DesignError, FgsliceError
+from fgslice.errors import FgsliceError
 from fgslice.machine.gcode_reader import read_gcode
 from fgslice.pipeline import slice_to_gcode
 from fgslice.settings import load_settings
@@ -32,8 +32,6 @@ NOT_DESIGNS = {
     "numba-attributes 1": "a template ('return ...')",
     "numba-attributes 3": "a template ('return ...')",
 }
-REFUSED = {"gradients 4": "C over the part, outside this machine's 170 .. 300 C"}
-"""Scripts asking the machine for what it cannot do: a 0-10 C nozzle temperature."""
 
 
 def _guide_scripts() -> list[tuple[str, str]]:
@@ -62,18 +60,13 @@ def _slice(design, tmp_path, **overrides):
 def test_the_guides_fixture_holds_every_lesson():
     names = [name for name, _ in SCRIPTS]
     assert len(names) == 40 and names[0] == "getting-started 1" and names[-1] == "attribute-conflicts 6"
-    assert set(NOT_DESIGNS) | set(REFUSED) <= set(names)
+    assert set(NOT_DESIGNS) <= set(names)
 
 
 @pytest.mark.parametrize("name,code", [s for s in SCRIPTS if s[0] not in NOT_DESIGNS], ids=[s[0] for s in SCRIPTS if s[0] not in NOT_DESIGNS])
 def test_each_guide_script_slices_unchanged(name, code, tmp_path):
     design = _design(tmp_path, code)
-    settings = {"layer_height": 0.4, "colors": 2}
-    if name in REFUSED:
-        with pytest.raises(DesignError, match=re.escape(REFUSED[name])):
-            _slice(design, tmp_path, **settings)
-        return
-    _, program, stats = _slice(design, tmp_path, **settings)
+    _, program, stats = _slice(design, tmp_path, layer_height=0.4, colors=2)
     lo, hi = (np.array(v) for v in design.bounds())
     roles = np.array(program.roles + [""])[program.role]
     printed = (program.e > 0) & (program.length > 0) & ~np.isin(roles, ["Skirt/Brim", "Wipe tower"])
@@ -195,7 +188,7 @@ def test_smooth_union_fills_the_gap_between_its_children(tmp_path):
 
 
 @pytest.mark.parametrize("code,message", [
-    ("root = pv.Cone(30.0, 10.0)", "pyvcad.Cone is not supported"),
+    ("root = pv.Sum(pv.Sphere(pv.Vec3(0, 0, 0), 1.0))", "pyvcad.Sum is not supported"),
     ("def f(x, y, z, d):\n    return x\nroot = pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(1, 1, 1))\n"
      "root.set_attribute('modulus', pv.FloatAttribute(f))", "decorated with numba's @cfunc"),
     ("root = pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(1, 1, 1))\n"
@@ -218,8 +211,13 @@ def test_check_lists_each_attribute_its_range_and_what_it_drives(tmp_path):
     text = format_report(report)
     assert re.search(r"attribute modulus\s+1\.\d+ \.\. 9\.\d+ -> drives nothing on this machine: .*AttributeModifier", text)
     assert report.usable
-    refused = check_design(_design(tmp_path, dict(SCRIPTS)["gradients 4"]))
-    assert not refused.usable and "temperature" in refused.attribute_drives
+    # lesson 2's 0-10 C Gaussian TEMPERATURE: design intent on the mixing hotend, refused when foaming
+    lesson2 = _design(tmp_path, dict(SCRIPTS)["gradients 4"])
+    intent = check_design(lesson2)
+    assert intent.usable and intent.design_intent == ["temperature"]
+    assert intent.attribute_drives["temperature"].startswith("nothing on this machine: ")
+    refused = check_design(lesson2, settings=load_settings("foam-lwpla", {}))
+    assert not refused.usable and "outside this machine's 170 .. 300 C" in refused.errors[0]
 
 
 # ---------------------------------------------------------------- G-code follows the field

@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import enum
 import numbers
-import re
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -38,18 +37,27 @@ from fgslice import __version__
 from fgslice.compat import context
 from fgslice.compat import pyvcad as v2
 from fgslice.compat.numba_standin import CFunc
-from fgslice.design import api, nodes
+from fgslice.compat.pyvcad_v3_fields import FloatOps, Vec3Ops, derived
+from fgslice.design import api, lookup_tables, nodes
 from fgslice.design.attribute_ops import AverageFractions, ConvertAttributes, Reducer, ResolveConflicts
 from fgslice.design.attributes import ROLE_SPEEDS, Attribute
+from fgslice.design.cone import Cone as _ConeNode
+from fgslice.design.derived_fields import named_expression
 from fgslice.design.expressions import compile_expression
+from fgslice.design.lookup_tables import Grid
 from fgslice.errors import DesignError
 
 _DOCS = "see the OpenVCAD 3 section of docs/language.md"
+
+_VDB_NAMES = ("SignedDistanceField", "FloatVolume", "Vec2sVolume", "Vec3sVolume", "Vec4sVolume", "vdb_loader",
+              "DICOMLoader")
+"""OpenVCAD names of volume data (OpenVDB grids, DICOM stacks), refused with the reason."""
 
 __all__ = [
     "version", "DefaultAttributes", "FloatAttribute", "Vec3Attribute", "Vec4Attribute", "VolumeFractionsAttribute",
     "Identity", "BBoxUnion", "BBoxIntersection", "Torus", "AttributeModifier", "LookupTableEntry",
     "LookupTableConverter", "ExpressionConverter", "InterpolationMode", "resolvers", "Vec4",
+    "DerivedFloatAttribute", "Cone", *_VDB_NAMES,
 ]
 
 
@@ -194,13 +202,15 @@ class _Attribute:
         raise v2._unsupported(type(self).__name__, name)
 
 
-class FloatAttribute(_Attribute):
+class FloatAttribute(FloatOps, _Attribute):
     """``FloatAttribute(value)``: a constant, an expression string of ``x, y, z, d`` (and
-    ``rho, phic, r, theta, phis``) or a ``@cfunc`` of ``(x, y, z, d)``."""
+    ``rho, phic, r, theta, phis``) or a ``@cfunc`` of ``(x, y, z, d)``; ``FloatAttribute()``
+    is the constant 0 until ``set_value`` / ``set_expression`` / ``set_function``. The
+    arithmetic and range methods are :class:`~fgslice.compat.pyvcad_v3_fields.FloatOps`'."""
 
     def __init__(self, *args) -> None:
-        v2._overload("FloatAttribute", args, {1: "definition"})
-        self.field = _component("FloatAttribute", "the definition", args[0])
+        v2._overload("FloatAttribute", args, {0: "", 1: "definition"})
+        self.field = _component("FloatAttribute", "the definition", args[0]) if args else 0.0
 
     def to_field(self) -> float | str | Callable:
         """The field as fgslice's design nodes take it: a float (constant), an expression
@@ -224,8 +234,9 @@ class _Vector(_Attribute):
         return self.fields
 
 
-class Vec3Attribute(_Vector):
-    """``Vec3Attribute(x, y, z)``: three channels (``COLOR_RGB``: red, green, blue in 0-1)."""
+class Vec3Attribute(Vec3Ops, _Vector):
+    """``Vec3Attribute(x, y, z)``: three channels (``COLOR_RGB``: red, green, blue in 0-1);
+    the channel and vector methods are :class:`~fgslice.compat.pyvcad_v3_fields.Vec3Ops`'."""
 
     _owner, _channels = "Vec3Attribute", ("x", "y", "z")
 
@@ -234,6 +245,19 @@ class Vec4Attribute(_Vector):
     """``Vec4Attribute(r, g, b, a)``: four channels (``COLOR_RGBA``: linear RGBA in 0-1)."""
 
     _owner, _channels = "Vec4Attribute", ("r", "g", "b", "a")
+
+
+class DerivedFloatAttribute(FloatAttribute):
+    """``DerivedFloatAttribute(expression, inputs)``: the expression of the named inputs
+    (``{"name": FloatAttribute or number}``) at each point; immutable, as in OpenVCAD."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        expression, inputs = v2._bind("DerivedFloatAttribute", ("expression", "inputs"), args, kwargs, {})
+        self.field = derived(expression, inputs)
+
+    def _define(self, definition) -> None:
+        raise DesignError("DerivedFloatAttribute is immutable: build a new one instead of setting its definition",
+                          hint=_DOCS)
 
 
 class VolumeFractionsAttribute(_Attribute):
@@ -509,6 +533,52 @@ class Torus(v2._Leaf):
                                       f"sqrt((rho - {r1!r})^2 + z^2) - {r2!r}"))
 
 
+class Cone(v2._Leaf):
+    """``Cone(angle, height)`` or ``Cone()`` (0.5 rad, 1 mm): a solid cone, aperture
+    half-angle ``angle`` (radians), apex at the origin, base disc at ``z = -height``
+    (:class:`fgslice.design.cone.Cone`)."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        angle, height = v2._bind("Cone", ("angle", "height"), args, kwargs, {"angle": 0.5, "height": 1.0})
+        angle, height = v2._number("Cone", "angle", angle), v2._number("Cone", "height", height)
+        if not 0 < angle < np.pi / 2:
+            raise DesignError(f"Cone: the angle is the aperture half-angle in radians, in (0, pi/2), got {angle:g}",
+                              hint="convert degrees with math.radians")
+        if height <= 0:
+            raise DesignError(f"Cone: the height must be positive, got {height:g}")
+        super().__init__(_ConeNode(angle, height))
+
+
+_VDB_REASON = {
+    "DICOMLoader": "fgslice does not read DICOM stacks",
+}
+
+
+class _Refused:
+    """An OpenVCAD name fgslice refuses with its reason as soon as a script uses it."""
+
+    def __init__(self, name: str) -> None:
+        self._name = name
+
+    def _refuse(self) -> DesignError:
+        reason = _VDB_REASON.get(self._name, "its data is an OpenVDB grid, and no maintained Python package on "
+                                             "PyPI reads OpenVDB files")
+        return DesignError(f"pyvcad.{self._name} is not supported by fgslice: {reason}",
+                           hint="give the field as an expression or a @cfunc, or the shape as a Mesh (STL, OBJ, 3MF)")
+
+    def __call__(self, *args, **kwargs):
+        raise self._refuse()
+
+    def __getattr__(self, name: str):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        raise self._refuse()
+
+
+for _name in _VDB_NAMES:
+    globals()[_name] = _Refused(_name)
+
+
 class Vec4:
     """``Vec4(x, y, z, w)``: four numbers (lookup-table outputs)."""
 
@@ -527,35 +597,94 @@ class InterpolationMode(enum.Enum):
 
 
 class LookupTableEntry:
-    """``LookupTableEntry(input, output)`` or ``LookupTableEntry(input_low, input_high,
-    output)``: one input value or range and its output value(s) (a number, or a list of
-    numbers, one per output attribute)."""
+    """One row of a lookup table:
+
+    * ``LookupTableEntry(input, output)``: a point (LINEAR, or STEP from ``input`` on);
+    * ``LookupTableEntry(input_low, input_high, output)``: a range of one input;
+    * ``LookupTableEntry([a, b], output)``: a point of a two-input LINEAR grid;
+    * ``LookupTableEntry([(low, high), ...], [value, ...])``: one range per input of a
+      multi-input STEP table, with the value each input's match gives.
+
+    An output is a number, a ``Vec3`` / ``Vec4``, or (single input) a list of them, one
+    per output attribute. ``is_valid`` (default True) can be set False to leave the row out.
+    """
 
     def __init__(self, *args) -> None:
-        v2._overload("LookupTableEntry", args, {2: "input, output", 3: "input_low, input_high, output"})
-        if any(isinstance(a, Sequence) and not isinstance(a, str) for a in args[:-1]):
-            raise DesignError("LookupTableEntry with several inputs is not supported by fgslice", hint=_DOCS)
-        low = v2._number("LookupTableEntry", "input", args[0])
-        high = v2._number("LookupTableEntry", "input_high", args[1]) if len(args) == 3 else low
-        if high < low:
-            raise DesignError(f"LookupTableEntry: input_high {high:g} is below input_low {low:g}")
+        owner = "LookupTableEntry"
+        v2._overload(owner, args, {2: "input, output", 3: "input_low, input_high, output"})
+        first = args[0]
+        if len(args) == 2 and isinstance(first, Sequence) and not isinstance(first, str):
+            if not first:
+                raise DesignError(f"{owner}: the list of inputs is empty")
+            if all(isinstance(k, Sequence) and not isinstance(k, str) for k in first):
+                if any(len(k) != 2 for k in first):
+                    raise DesignError(f"{owner}: each input range is a (low, high) pair", hint=_DOCS)
+                self.keys = tuple(_range(owner, *k) for k in first)
+                self.ranged = True
+            else:
+                self.keys = tuple((v, v) for v in (v2._number(owner, "input point", k) for k in first))
+                self.ranged = False
+        else:
+            low = v2._number(owner, "input", first)
+            self.keys = (_range(owner, low, args[1]) if len(args) == 3 else (low, low),)
+            self.ranged = len(args) == 3
         output = args[-1]
-        outputs = output if isinstance(output, Sequence) and not isinstance(output, str) else [output]
-        if any(isinstance(o, (v2.Vec3, Vec4, dict)) for o in outputs):
-            raise DesignError("LookupTableEntry: fgslice's lookup tables give numbers (float attributes), not vectors "
-                              "or volume fractions", hint=_DOCS)
-        self.low, self.high = low, high
-        self.outputs = tuple(v2._number("LookupTableEntry", "output", o) for o in outputs)
+        listed = isinstance(output, Sequence) and not isinstance(output, str)
+        self.values = tuple(_output_value(owner, o) for o in (output if listed else [output]))
+        if not self.values:
+            raise DesignError(f"{owner}: the list of outputs is empty")
+        self.is_valid = True
+
+    @property
+    def low(self) -> float:
+        """The (first) input's value or low end."""
+        return self.keys[0][0]
 
 
-def _names(owner: str, what: str, names) -> tuple[str, ...]:
+def _range(owner: str, low, high) -> tuple[float, float]:
+    low, high = v2._number(owner, "input_low", low), v2._number(owner, "input_high", high)
+    if high < low:
+        raise DesignError(f"{owner}: input_high {high:g} is below input_low {low:g}")
+    return low, high
+
+
+def _output_value(owner: str, value) -> tuple[float, ...]:
+    """An output as its channels: a number (1), a Vec3 (3) or a Vec4 (4)."""
+    if isinstance(value, v2.Vec3):
+        return tuple(value)
+    if isinstance(value, Vec4):
+        return value.values
+    if isinstance(value, dict):
+        raise DesignError(f"{owner}: lookup tables to volume fractions are not supported by fgslice",
+                          hint="give the fractions as a VolumeFractionsAttribute of expressions of x, y, z")
+    return (v2._number(owner, "output", value),)
+
+
+_WIDTHS = {"color_rgb": 3, "color_rgba": 4}
+"""Channels of the vector attributes a lookup table can give (other outputs: 1)."""
+
+
+def _output_channels(names: Sequence[str]) -> list[tuple[str, float]]:
+    """The fgslice attributes ``(name, unit factor)`` that converter outputs ``names`` fill, channel by channel."""
+    out = []
+    for name in names:
+        if name in _WIDTHS:
+            out.extend((f"{name}.{c}", 1.0) for c in "rgba"[:_WIDTHS[name]])
+        else:
+            out.append(_fgslice_name(name))
+    return out
+
+
+def _names(owner: str, what: str, names, vectors: bool = False) -> tuple[str, ...]:
+    """Attribute names of a converter: float attributes (and colours, when ``vectors``)."""
     if isinstance(names, str) or not isinstance(names, Sequence) or not names:
         raise DesignError(f"{owner}: {what} is a list of attribute names", hint=_DOCS)
     out = tuple(_attribute_name(owner, n) for n in names)
-    vector = [n for n in out if n in ("volume_fractions", "color_rgb", "color_rgba")]
+    refused = ("volume_fractions",) if vectors else ("volume_fractions", *_WIDTHS)
+    vector = [n for n in out if n in refused]
     if vector:
-        raise DesignError(f"{owner}: '{vector[0]}' is not a float attribute; fgslice converts float attributes only",
-                          hint=_DOCS)
+        kinds = "float attributes and colours" if vectors else "float attributes"
+        raise DesignError(f"{owner}: fgslice converts to {kinds}, not '{vector[0]}'", hint=_DOCS)
     return out
 
 
@@ -575,80 +704,121 @@ class _Converter:
 
 
 class LookupTableConverter(_Converter):
-    """``LookupTableConverter(input_attributes, output_attributes, entries, mode=STEP)``:
-    one input attribute; LINEAR interpolates between the entries' inputs (held flat beyond
-    the first and last), STEP gives the value of the last entry whose input (low end) is
-    at most the point's (the first entry below it)."""
+    """``LookupTableConverter(input_attributes, output_attributes, entries, mode=STEP)``.
+
+    One input: LINEAR interpolates between the entries' inputs (held flat beyond the
+    first and last), STEP gives the row of the last entry whose input (low end) is at most
+    the point's (the first entry below every one). Two inputs, LINEAR: bilinear on the
+    rectilinear grid of the entries' points (each input clamped to the grid). Several
+    inputs, STEP: each input is matched on its own range column (as one input) and gives
+    its own value; one output attribute takes the values end to end (``Vec3`` + number
+    -> ``color_rgba``), else output ``i`` takes input ``i``'s value. Outputs are float
+    attributes, ``color_rgb`` or ``color_rgba`` (:mod:`fgslice.design.lookup_tables`).
+    """
 
     def __init__(self, input_attributes, output_attributes, entries, mode=InterpolationMode.STEP) -> None:
         owner = "LookupTableConverter"
         self.inputs = _names(owner, "input_attributes", input_attributes)
-        self.outputs = _names(owner, "output_attributes", output_attributes)
-        if len(self.inputs) != 1:
-            raise DesignError(f"{owner} with {len(self.inputs)} input attributes is not supported by fgslice",
-                              hint="use one input attribute, or an ExpressionConverter")
+        self.outputs = _names(owner, "output_attributes", output_attributes, vectors=True)
         if not isinstance(mode, InterpolationMode):
             raise DesignError(f"{owner}: mode is pv.InterpolationMode.STEP or .LINEAR, got {mode!r}")
         if isinstance(entries, str) or not isinstance(entries, Sequence) or not entries or not all(
                 isinstance(e, LookupTableEntry) for e in entries):
             raise DesignError(f"{owner}: entries is a list of pv.LookupTableEntry", hint=_DOCS)
-        bad = [e for e in entries if len(e.outputs) != len(self.outputs)]
+        entries = [e for e in entries if e.is_valid]
+        if not entries:
+            raise DesignError(f"{owner}: every entry is marked is_valid = False")
+        n = len(self.inputs)
+        if n > 2 and mode is InterpolationMode.LINEAR:
+            raise DesignError(f"{owner}: LINEAR interpolates one input or a two-input grid, got {n} inputs",
+                              hint="use STEP, or chain converters")
+        bad = [e for e in entries if len(e.keys) != n or (n > 1 and e.ranged != (mode is InterpolationMode.STEP))]
         if bad:
-            raise DesignError(f"{owner}: an entry gives {len(bad[0].outputs)} value(s) for "
-                              f"{len(self.outputs)} output attribute(s)")
-        ordered = sorted(entries, key=lambda e: e.low)
+            form = "a list of (low, high) ranges" if mode is InterpolationMode.STEP else "a list of input points"
+            raise DesignError(f"{owner}: an entry has {len(bad[0].keys)} input(s) for {n} input attribute(s)"
+                              + (f"; with several inputs in {mode.name} mode each entry gives {form}" if n > 1 else ""),
+                              hint=_DOCS)
+        widths = [_WIDTHS.get(name, 1) for name in self.outputs]
+        self.mode = mode
+        if n > 1 and mode is InterpolationMode.STEP:
+            self._columns = [self._column(owner, entries, i, widths) for i in range(n)]
+            return
+        rows = np.array([self._row(owner, e, widths) for e in entries])
+        if n == 2:
+            self._grid = Grid(np.array([[k[0] for k in e.keys] for e in entries]), rows, owner)
+            return
+        order = np.argsort([e.low for e in entries], kind="stable")
+        ordered = [entries[i] for i in order]
+        rows = rows[order]
         if mode is InterpolationMode.LINEAR:
-            self._x = np.array([v for e in ordered for v in ((e.low,) if e.low == e.high else (e.low, e.high))])
-            self._y = np.array([o for e in ordered for o in ([e.outputs] if e.low == e.high else [e.outputs] * 2)])
+            self._x = np.array([v for e in ordered for v in ((e.low,) if e.keys[0][0] == e.keys[0][1]
+                                                              else e.keys[0])])
+            self._y = np.array([r for e, r in zip(ordered, rows) for r in ([r] if e.keys[0][0] == e.keys[0][1]
+                                                                           else [r, r])])
         else:
             self._x = np.array([e.low for e in ordered])
-            self._y = np.array([e.outputs for e in ordered])
-        self.mode = mode
+            self._y = rows
+
+    def _row(self, owner: str, entry: LookupTableEntry, widths: list[int]) -> list[float]:
+        """The entry's output channels, end to end: one value per output, or one value for all."""
+        values = entry.values
+        if len(values) == 1 and len(values[0]) == sum(widths):
+            return list(values[0])
+        if [len(v) for v in values] != widths:
+            raise DesignError(f"{owner}: an entry gives {_shape(values)} for the output attribute(s) "
+                              f"{', '.join(self.outputs)} ({' + '.join(map(str, widths))} channels)", hint=_DOCS)
+        return [c for v in values for c in v]
+
+    def _column(self, owner: str, entries, i: int, widths: list[int]):
+        """Input ``i``'s STEP table: its range lows (ascending) and the values it gives."""
+        values = [e.values for e in entries]
+        if any(len(v) != len(self.inputs) for v in values):
+            raise DesignError(f"{owner}: with several inputs in STEP mode each entry gives one value per input "
+                              f"({len(self.inputs)})", hint=_DOCS)
+        mine = [len(v[i]) for v in values]
+        if len(set(mine)) != 1:
+            raise DesignError(f"{owner}: the entries give input {self.inputs[i]!r} values of different sizes")
+        joined = sum(len(v) for v in values[0])
+        if not ((len(widths) == 1 and joined == widths[0]) or
+                (len(widths) == len(self.inputs) and all(len(v) == w for v, w in zip(values[0], widths)))):
+            raise DesignError(f"{owner}: the entries give {_shape(values[0])} for the output attribute(s) "
+                              f"{', '.join(self.outputs)} ({' + '.join(map(str, widths))} channels)", hint=_DOCS)
+        order = np.argsort([e.keys[i][0] for e in entries], kind="stable")
+        return (np.array([entries[j].keys[i][0] for j in order]), np.array([entries[j].values[i] for j in order]))
 
     def convert(self, values):
-        t = values[0]
+        if self.mode is InterpolationMode.STEP and len(self.inputs) > 1:
+            return [c for (keys, rows), t in zip(self._columns, values) for c in lookup_tables.step(keys, rows, t)]
+        if len(self.inputs) == 2:
+            return self._grid(values[0], values[1])
         if self.mode is InterpolationMode.LINEAR:
-            return [np.interp(t, self._x, self._y[:, j]) for j in range(len(self.outputs))]
-        index = np.clip(np.searchsorted(self._x, t, side="right") - 1, 0, len(self._x) - 1)
-        return [np.where(np.isfinite(t), self._y[index, j], np.nan) for j in range(len(self.outputs))]
+            return lookup_tables.linear(self._x, self._y, values[0])
+        return lookup_tables.step(self._x, self._y, values[0])
+
+
+def _shape(values) -> str:
+    return " + ".join(f"{len(v)}" for v in values) + " channel(s)"
 
 
 class ExpressionConverter(_Converter):
     """``ExpressionConverter(input_attributes, output_attributes, expressions)``: each
     output is an expression of the input attributes' names (at most four inputs)."""
 
-    _SLOTS = ("x", "y", "z", "d")
-
     def __init__(self, input_attributes, output_attributes, expressions) -> None:
         owner = "ExpressionConverter"
         self.inputs = _names(owner, "input_attributes", input_attributes)
         self.outputs = _names(owner, "output_attributes", output_attributes)
-        if len(self.inputs) > len(self._SLOTS):
-            raise DesignError(f"{owner}: fgslice converts at most {len(self._SLOTS)} input attributes at once")
         if isinstance(expressions, str) or not isinstance(expressions, Sequence) or len(expressions) != len(self.outputs):
             raise DesignError(f"{owner}: give one expression string per output attribute", hint=_DOCS)
         where = context.site()
-        pattern = re.compile(r"\b(" + "|".join(re.escape(n) for n in self.inputs) + r")\b")
-        slots = dict(zip(self.inputs, self._SLOTS))
         self._expressions = []
         for text in expressions:
             if not isinstance(text, str):
                 raise DesignError(f"{owner}: an expression is a string, got {text!r}")
-            self._check_names(text)
-            compiled = compile_expression(pattern.sub(lambda m: slots[m.group(1)], text),
-                                          file=where.file, line=where.line or 1)
-            self._expressions.append(compiled)
-
-    def _check_names(self, text: str) -> None:
-        coordinates = {"x", "y", "z", "d", "rho", "phic", "r", "theta", "phis"} - set(self.inputs)
-        used = set(re.findall(r"\b[A-Za-z_]\w*\b", text)) & coordinates
-        if used:
-            raise DesignError(f"ExpressionConverter: '{sorted(used)[0]}' is not one of the input attributes "
-                              f"({', '.join(self.inputs)})", hint="a converter's expressions read its inputs only")
+            self._expressions.append(named_expression(owner, text, self.inputs, file=where.file, line=where.line or 1))
 
     def convert(self, values):
-        padded = list(values) + [np.zeros_like(values[0])] * (len(self._SLOTS) - len(values))
-        return [e(*padded[:3], padded[3]) if "d" in e.variables else e(*padded[:3]) for e in self._expressions]
+        return [e(list(values)) for e in self._expressions]
 
 
 class AttributeModifier(v2.Node):
@@ -672,7 +842,7 @@ class AttributeModifier(v2.Node):
             raise DesignError("AttributeModifier has no child", hint="give it with set_child(node)")
         conv = self._converter
         inputs = [_fgslice_name(n) for n in conv.inputs]
-        outputs = [_fgslice_name(n) for n in conv.outputs]
+        outputs = _output_channels(conv.outputs)
 
         def function(values):
             converted = conv.convert([v / factor for v, (_, factor) in zip(values, inputs)])

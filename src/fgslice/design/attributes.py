@@ -83,6 +83,7 @@ class Attribute(AttributeCarrier):
                  any_name: bool = False) -> None:
         super().__init__(children, where)
         self.name = canonical_name(name, where, any_name)
+        self.any_name = any_name
         self.field = field
         self._body = self.children[0] if len(self.children) == 1 else nodes.Union(self.children, where)
 
@@ -169,6 +170,38 @@ def attribute_fields(design) -> AttributeFields | None:
         return None
     fields = AttributeFields(root)
     return fields if fields.names else None
+
+
+def intent_temperature(root: nodes.Node, low: float, high: float, settings) -> str | None:
+    """Why a ``temperature`` ranging ``low .. high`` C drives nothing on the machine of
+    ``settings``, or None when it is the nozzle temperature there (and is checked
+    against the machine's limits).
+
+    Only OpenVCAD 3's attributes (attached by name, or derived by converters and
+    resolvers) can be design intent: its ``TEMPERATURE`` is a field a design may carry
+    for analysis or display (its functional-grading guide grades one over 0-10 C). On a
+    profile without the temperature (foaming) dialect it drives nothing when the dialect
+    commands no nozzle temperature (``template``) or when the whole range lies outside
+    ``min_extrude_temperature .. max_nozzle_temperature``; a range reaching into the
+    machine's is the nozzle temperature, and refused when it leaves it. On a foaming
+    profile the temperature is what the machine grades: always driven, always checked."""
+    if settings.dialect == "temperature" or not _openvcad3_only(root, "temperature"):
+        return None
+    if settings.dialect == "template":
+        return "the template dialect commands no nozzle temperature, so the field stays design intent"
+    lo, hi = limits(settings)["temperature"]
+    if high < lo or low > hi:
+        return (f"{low:.4g} .. {high:.4g} C is no nozzle temperature for this machine ({lo:.4g} .. {hi:.4g} C), so "
+                "the field stays design intent (a foaming profile, dialect 'temperature', refuses it)")
+    return None
+
+
+def _openvcad3_only(root: nodes.Node, name: str) -> bool:
+    """Whether every node of ``root``'s tree that sets attribute ``name`` is an OpenVCAD 3
+    attribute (attached by name) or an attribute operator (converters, resolvers)."""
+    setters = [n for n, *_ in nodes.walk(root) if name in _produced(n)]
+    return bool(setters) and all(isinstance(n, AttributeOperator) or (isinstance(n, Attribute) and n.any_name)
+                                 for n in setters)
 
 
 def limits(settings) -> dict[str, tuple[float, float]]:

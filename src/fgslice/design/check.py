@@ -44,6 +44,9 @@ class CheckReport:
         attribute_drives: attribute name -> what it commands on the machine of the
             settings checked against; attributes without machine meaning say so, with
             what would give them one.
+        design_intent: attributes of a machine name that this machine takes as design
+            intent and drives nothing with (an OpenVCAD 3 ``TEMPERATURE`` that is no
+            nozzle temperature here: :func:`fgslice.design.attributes.intent_temperature`).
         inside_samples: grid points found inside the part.
         spacing: grid step used, mm.
         warnings: problems that still allow slicing.
@@ -59,6 +62,7 @@ class CheckReport:
     attribute_ranges: dict[str, tuple[float, float]] = field(default_factory=dict)
     attribute_cover: dict[str, float] = field(default_factory=dict)
     attribute_drives: dict[str, str] = field(default_factory=dict)
+    design_intent: list[str] = field(default_factory=list)
     inside_samples: int = 0
     spacing: float = 0.0
     warnings: list[str] = field(default_factory=list)
@@ -206,7 +210,7 @@ def _check_machine(design: Design, settings, report: CheckReport) -> None:
 def _check_attributes(design: Design, x, y, z, settings, report: CheckReport) -> None:
     """Each attribute's range over the samples inside the part, and an error for each
     range the machine cannot command."""
-    from fgslice.design.attributes import attribute_fields, drives, out_of_limits
+    from fgslice.design.attributes import attribute_fields, drives, intent_temperature, out_of_limits
     from fgslice.settings import Settings
 
     fields = attribute_fields(design)
@@ -227,6 +231,11 @@ def _check_attributes(design: Design, x, y, z, settings, report: CheckReport) ->
         low, high = float(values.min()), float(values.max())
         report.attribute_ranges[name] = (low, high)
         driven = drives(name, settings)
+        intent = intent_temperature(fields.root, low, high, settings) if name == "temperature" else None
+        if intent:
+            report.attribute_drives[name] = f"nothing on this machine: {intent}"
+            report.design_intent.append(name)
+            continue
         report.attribute_drives[name] = driven or _undriven(design, name, settings)
         if driven is None:
             continue

@@ -173,4 +173,7 @@ def checked_attributes(design, settings) -> AttributeFields | None:
     if problems:
         raise DesignError("; ".join(problems), hint="run 'fgslice check' on the design with the same profile")
     fields.ranges, fields.cover = dict(report.attribute_ranges), dict(report.attribute_cover)
+    for name in report.design_intent:  # drives nothing on this machine
+        fields.ranges.pop(name, None)
+        fields.cover.pop(name, None)
     return fields

@@ -1,0 +1,258 @@
+"""OpenVCAD 3's derived attributes (arithmetic, map_range, clamp, normalize, vector
+methods, DerivedFloatAttribute), its Cone, and the volume-data names fgslice refuses."""
+
+from __future__ import annotations
+
+import math
+import re
+import textwrap
+from datetime import datetime, timezone
+
+import numpy as np
+import pytest
+
+from fgslice.compat.script import load_script
+from fgslice.design.attributes import attribute_fields
+from fgslice.errors import FgsliceError
+from fgslice.machine.gcode_reader import read_gcode
+from fgslice.pipeline import slice_to_gcode
+from fgslice.settings import load_settings
+
+HEADER = "import pyvcad as pv\n"
+
+
+def _design(tmp_path, code: str):
+    path = tmp_path / "design.py"
+    path.write_text(HEADER + textwrap.dedent(code))
+    return load_script(path)
+
+
+def _slice(design, tmp_path, profile=None, **overrides):
+    settings = load_settings(profile, {k: str(v) for k, v in overrides.items()})
+    out = tmp_path / "part.gcode"
+    result = slice_to_gcode(design, settings, out, jobs=1, stamp=datetime(2026, 1, 1, tzinfo=timezone.utc))
+    return settings, read_gcode(out), result.stats
+
+
+def _values(design, name, x, y, z):
+    return attribute_fields(design).values(name, np.asarray(x, float), np.asarray(y, float), np.asarray(z, float))
+
+
+def test_the_metamaterial_guides_attribute_steps_give_their_formulas(tmp_path):
+    design = _design(tmp_path, """
+        x_position = pv.FloatAttribute("x")
+        position_01 = x_position.normalize(-24.0, 24.0)
+        curved_position = position_01 ** 2
+        thickness = curved_position.map_range(0.0, 1.0, 0.55, 1.65)
+        bounded_thickness = thickness.clamp(0.55, 1.65)
+        combined = pv.DerivedFloatAttribute("base + gain * signal", {"base": 0.4, "gain": 0.8, "signal": position_01})
+        planar_position = pv.Vec3Attribute("x / 24", "0", "z / 24")
+        radial_distance = planar_position.magnitude().clamp(0.0, 1.0)
+        beam_radius = radial_distance.map_range(0.0, 1.0, 0.25, 1.25)
+        root = pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(60, 10, 60))
+        root.set_attribute(pv.DefaultAttributes.MODULUS, bounded_thickness)
+        root.set_attribute(pv.DefaultAttributes.DENSITY, combined)
+        root.set_attribute(pv.DefaultAttributes.HU, beam_radius)
+        root.set_attribute(pv.DefaultAttributes.TOUGHNESS,
+                           abs(1 - planar_position.normalized().x) + planar_position.dot(planar_position) / 2
+                           - (-planar_position.z) * 3 + 1 / (1 + planar_position.component(1)))
+    """)
+    x = np.linspace(-30, 30, 13)
+    z = np.linspace(-20, 28, 13)
+    y = 0 * x
+    p = (x + 24) / 48
+    np.testing.assert_allclose(_values(design, "modulus", x, y, z), np.clip(0.55 + 1.1 * p * p, 0.55, 1.65))
+    np.testing.assert_allclose(_values(design, "density", x, y, z), 0.4 + 0.8 * p)
+    magnitude = np.hypot(x / 24, z / 24)
+    np.testing.assert_allclose(_values(design, "hu", x, y, z), 0.25 + np.clip(magnitude, 0, 1))
+    expected = np.abs(1 - (x / 24) / magnitude) + magnitude**2 / 2 + 3 * z / 24 + 1
+    np.testing.assert_allclose(_values(design, "toughness", x, y, z), expected)
+
+
+def test_setters_replace_the_definition_and_a_derived_attribute_is_immutable(tmp_path):
+    design = _design(tmp_path, """
+        a = pv.FloatAttribute()
+        a.set_expression("2 * x")
+        b = a + 1
+        a.set_value(5.0)
+        root = pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(10, 10, 10))
+        root.set_attribute("modulus", b)
+        root.set_attribute("density", a)
+    """)
+    np.testing.assert_allclose(_values(design, "modulus", [-4, 4], [0, 0], [0, 0]), [-7, 9])  # b kept the old a
+    np.testing.assert_allclose(_values(design, "density", [-4, 4], [0, 0], [0, 0]), [5, 5])
+
+
+@pytest.mark.parametrize("code,message", [
+    ("a = pv.DerivedFloatAttribute('s + x', {'s': pv.FloatAttribute('z')})", "'x' is not one of the inputs (s)"),
+    ("a = pv.DerivedFloatAttribute('s', [1])", "inputs is a dict"),
+    ("a = pv.DerivedFloatAttribute('s', {'s': pv.Vec3Attribute(1, 2, 3)})", "input 's' must be a FloatAttribute"),
+    ("a = pv.DerivedFloatAttribute('s', {'s': 1.0})\na.set_value(2.0)", "DerivedFloatAttribute is immutable"),
+    ("a = pv.DerivedFloatAttribute('a+b+c+e+f', {n: pv.FloatAttribute(1.0) for n in 'abcef'})", "at most 4"),
+    ("a = pv.FloatAttribute('x').map_range(1, 1, 0, 2)", "input range 1 .. 1 is empty"),
+    ("a = pv.FloatAttribute('x') + pv.Vec3Attribute(1, 2, 3)", "combines with FloatAttributes and numbers"),
+    ("a = pv.Vec3Attribute(1, 2, 3).component(3)", "index is 0, 1 or 2"),
+    ("root = pv.Cone(30.0, 10.0)", "aperture half-angle in radians"),
+    ("root = pv.Cone(0.5, -1)", "height must be positive"),
+    ("root = pv.SignedDistanceField('part.vdb')", "pyvcad.SignedDistanceField is not supported by fgslice: its data "
+                                                  "is an OpenVDB grid"),
+    ("v = pv.vdb_loader.load_float_volume('model.vdb', 'density')", "pyvcad.vdb_loader is not supported"),
+    ("v = pv.DICOMLoader('scans')", "does not read DICOM"),
+])
+def test_bad_derived_attributes_cones_and_volume_data_fail_at_the_scripts_line(tmp_path, code, message):
+    with pytest.raises(FgsliceError, match=re.escape(message)) as caught:
+        _design(tmp_path, code + "\n")
+    assert caught.value.line is not None and caught.value.line >= 2
+
+
+def test_derived_temperature_and_flow_drive_m104_and_extrusion_along_the_bar(tmp_path):
+    design = _design(tmp_path, """
+        t = pv.FloatAttribute("x").normalize(-30, 30)
+        bar = pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(60, 12, 4))
+        bar.set_attribute(pv.DefaultAttributes.TEMPERATURE, t.map_range(0, 1, 190, 225))
+        bar.set_attribute(pv.DefaultAttributes.FLOW_RATE, pv.DerivedFloatAttribute("hi - span * t",
+                                                                                  {"hi": 1.2, "span": 0.4, "t": t}))
+        root = bar
+    """)
+    settings, program, stats = _slice(design, tmp_path, profile="foam-lwpla")
+    printed = (program.e > 0) & (program.length > 0) & (program.layer > 0)
+    x = ((program.start + program.end) / 2)[printed, 0] - stats["placement_offset"][0]
+    temperature = np.array([program.states[s].temperature for s in program.state[printed]])
+    assert temperature.min() == 190 and temperature.max() == 225
+    # a state per level of temperature_step: within a level of the field at the move
+    assert np.abs(temperature - (190 + 35 * (x + 30) / 60)).max() <= settings.temperature_step + 1e-9
+    per_mm = program.e[printed] / program.length[printed]
+    ends = [np.median(per_mm[band]) for band in (x < -25, x > 25)]
+    assert ends[1] / ends[0] == pytest.approx((1.2 - 0.4 * 55 / 60) / (1.2 - 0.4 * 5 / 60), rel=0.05)
+
+
+def test_cone_sections_are_the_analytic_circles(tmp_path):
+    design = _design(tmp_path, "root = pv.Translate(5, -3, 0, pv.Cone(math.radians(20), 30.0))\n".replace(
+        "math.radians(20)", repr(math.radians(20))))
+    lo, hi = (np.array(b) for b in design.bounds())
+    r = 30 * math.tan(math.radians(20))
+    np.testing.assert_allclose(lo, [5 - r, -3 - r, -30], atol=1e-9)
+    np.testing.assert_allclose(hi, [5 + r, -3 + r, 0], atol=1e-9)
+    zs = [-29.0, -20.0, -7.5, -1.0]
+    for z, section in zip(zs, design.sections(zs)):
+        radius = -z * math.tan(math.radians(20))
+        assert section.area == pytest.approx(math.pi * radius**2, rel=2e-3)
+        assert section.centroid.x == pytest.approx(5) and section.centroid.y == pytest.approx(-3)
+    # the signed distance: exact to the side and to the base
+    d = design.sdf(np.array([5.0, 5.0, 5.0 + r + 2]), np.array([-3.0, -3.0, -3.0]), np.array([-10.0, -31.0, -30.0]))
+    np.testing.assert_allclose(d, [-10 * math.sin(math.radians(20)), 1.0, 2.0], atol=1e-9)
+
+
+def test_a_sliced_cone_s_outer_wall_follows_its_radius_at_each_layer(tmp_path):
+    design = _design(tmp_path, "root = pv.Cone(0.6, 12.0)\n")
+    settings, program, stats = _slice(design, tmp_path, layer_height=0.3)
+    offset = np.array(stats["placement_offset"])
+    roles = np.array(program.roles + [""])[program.role]
+    outer = (program.e > 0) & (roles == "External perimeter")
+    assert outer.any()
+    for layer in np.unique(program.layer[outer])[::5]:
+        here = outer & (program.layer == layer)
+        z_design = program.layer_z[layer] - settings.layer_height / 2 - offset[2]
+        xy = program.end[here, :2] - offset[:2]
+        radius = -z_design * math.tan(0.6) - settings.bead_width / 2
+        np.testing.assert_allclose(np.hypot(*xy.T), radius, atol=0.05)
+
+
+def test_lookup_tables_of_the_api_reference_single_multi_input_step_and_a_two_input_grid(tmp_path):
+    design = _design(tmp_path, """
+        part = pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(40, 40, 10))
+        part.set_attribute(pv.DefaultAttributes.HU, pv.FloatAttribute("x * 50"))
+        part.set_attribute(pv.DefaultAttributes.TEMPERATURE, pv.FloatAttribute("x / 2"))
+        part.set_attribute(pv.DefaultAttributes.DENSITY, pv.FloatAttribute("(y + 20) / 80"))
+        hu = pv.LookupTableConverter(['hu'], ['color_rgba'], [
+            pv.LookupTableEntry(-1000, -500, pv.Vec4(0, 0, 0, 0)),
+            pv.LookupTableEntry(-500, 0, pv.Vec4(1, 0, 0, 0.5)),
+            pv.LookupTableEntry(0, 1000, pv.Vec4(0, 1, 0, 1)),
+        ], pv.InterpolationMode.STEP)
+        rgb = pv.LookupTableConverter(['temperature', 'density'], ['color_rgb', 'modulus'], [
+            pv.LookupTableEntry([(0, 1), (0, 0.01)], [pv.Vec3(1, 1, 1), 0.0]),
+            pv.LookupTableEntry([(1, 10), (0.01, 0.5)], [pv.Vec3(1, 0, 0), 0.5]),
+        ], pv.InterpolationMode.STEP)
+        corners = [([t, d], f) for t, d, f in [(-10, 0, 1.0), (10, 0, 2.0), (-10, 0.5, 3.0), (10, 0.5, 5.0)]]
+        grid = pv.LookupTableConverter(['temperature', 'density'], ['toughness'],
+                                       [pv.LookupTableEntry(p, f) for p, f in corners], pv.InterpolationMode.LINEAR)
+        root = pv.AttributeModifier(grid, pv.AttributeModifier(rgb, pv.AttributeModifier(hu, part)))
+    """)
+    x = np.array([-15.0, -5.0, 5.0, 15.0, 4.0])
+    y = np.array([-20.0, -10.0, 0.0, 19.0, -19.9])
+    z = 0 * x
+    rgba = np.array([_values(design, f"color_rgba.{c}", x, y, z) for c in "rgba"]).T
+    np.testing.assert_allclose(rgba, [[0, 0, 0, 0], [1, 0, 0, 0.5], [0, 1, 0, 1], [0, 1, 0, 1], [0, 1, 0, 1]])
+    t, d = x / 2, (y + 20) / 80
+    # each input matched on its own column: temperature -> the colour, density -> modulus
+    red_only = t >= 1
+    np.testing.assert_allclose(_values(design, "color_rgb.g", x, y, z), np.where(red_only, 0, 1))
+    np.testing.assert_allclose(_values(design, "modulus", x, y, z), np.where(d >= 0.01, 0.5, 0))
+    u, v = (np.clip(t, -10, 10) + 10) / 20, np.clip(d, 0, 0.5) / 0.5
+    expected = 1 * (1 - u) * (1 - v) + 2 * u * (1 - v) + 3 * (1 - u) * v + 5 * u * v
+    np.testing.assert_allclose(_values(design, "toughness", x, y, z), expected)
+
+
+def test_a_temperature_to_colour_table_drives_the_mixture_on_a_two_filament_hotend(tmp_path):
+    design = _design(tmp_path, """
+        bar = pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(60, 10, 2))
+        bar.set_attribute(pv.DefaultAttributes.DENSITY, pv.FloatAttribute("x / 30"))
+        to_colour = pv.LookupTableConverter(['density'], ['color_rgb'], [
+            pv.LookupTableEntry(-1, pv.Vec3(1, 0, 0)), pv.LookupTableEntry(1, pv.Vec3(0, 0, 1))],
+            pv.InterpolationMode.LINEAR)
+        root = pv.AttributeModifier(to_colour, bar)
+    """)
+    _, program, stats = _slice(design, tmp_path, profile="marlin-mixing", colors=8, strategy=1,
+                               filament_colors="#ff0000,#0000ff")
+    mid = (program.start + program.end)[:, :2] / 2 - np.array(stats["placement_offset"][:2])
+    printed = (program.e > 0) & (program.length > 0) & (program.layer == 2) & (np.abs(mid) <= [30, 5]).all(axis=1)
+    x = mid[printed, 0]
+    blue = np.array([program.states[s].mix_fractions(2)[1] for s in program.state[printed]])
+    # the table gives red (1, 0, 0) .. blue (0, 0, 1) linearly: the blue share is (x + 30) / 60
+    assert np.abs(blue - (0.5 + x / 60)).max() <= 1 / 8 + 0.02
+    assert blue.min() < 0.15 and blue.max() > 0.85
+
+
+@pytest.mark.parametrize("code,message", [
+    ("pv.LookupTableConverter(['hu'], ['volume_fractions'], [pv.LookupTableEntry(0, 1)])", "not 'volume_fractions'"),
+    ("pv.LookupTableEntry([1.0, 2.0], {1: 0.7, 2: 0.3})", "lookup tables to volume fractions are not supported"),
+    ("pv.LookupTableConverter(['hu', 'density'], ['modulus'], [pv.LookupTableEntry([0, 0], 1.0), "
+     "pv.LookupTableEntry([1, 0], 1.0), pv.LookupTableEntry([0, 1], 1.0)], pv.InterpolationMode.LINEAR)",
+     "the point (1, 1) has no entry"),
+    ("pv.LookupTableConverter(['hu', 'density', 'modulus'], ['toughness'], [pv.LookupTableEntry([0, 0, 0], 1.0)], "
+     "pv.InterpolationMode.LINEAR)", "LINEAR interpolates one input or a two-input grid"),
+    ("pv.LookupTableConverter(['hu'], ['color_rgba'], [pv.LookupTableEntry(0, pv.Vec3(1, 0, 0))])",
+     "an entry gives 3 channel(s) for the output attribute(s) color_rgba (4 channels)"),
+])
+def test_bad_lookup_tables_fail_with_their_reason(tmp_path, code, message):
+    with pytest.raises(FgsliceError, match=re.escape(message)):
+        _design(tmp_path, code + "\n")
+
+
+GAUSSIAN = """
+    prism = pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(50, 10, 4))
+    prism.set_attribute(pv.DefaultAttributes.TEMPERATURE, pv.FloatAttribute("{expression}"))
+    root = prism
+"""
+
+
+def test_a_temperature_that_is_no_nozzle_temperature_is_design_intent_on_a_mixing_hotend(tmp_path):
+    # the functional-grading guide's 0-10 C Gaussian: no temperature state, the profile's nozzle temperature
+    design = _design(tmp_path, GAUSSIAN.format(expression="10 * exp(-(x^2) / (2 * 10^2))"))
+    settings, program, stats = _slice(design, tmp_path, layer_height=0.4)
+    heats = {e.target for e in program.temperatures if e.target > 0 and e.command in ("M104", "M109")}
+    assert heats == {settings.nozzle_temperature} and "temperature_levels" not in stats
+    printed = (program.e > 0) & (program.length > 0)
+    assert len({program.states[s].temperature for s in program.state[printed]}) <= 1
+    with pytest.raises(FgsliceError, match=re.escape("outside this machine's 170 .. 300 C")):
+        _slice(design, tmp_path, profile="foam-lwpla")
+
+
+def test_a_temperature_reaching_into_the_nozzle_range_drives_m104_and_is_refused_beyond_it(tmp_path):
+    within = _design(tmp_path, GAUSSIAN.format(expression="200 + x / 2"))
+    _, program, _ = _slice(within, tmp_path, layer_height=0.4)
+    targets = {e.target for e in program.temperatures if e.target > 0 and e.command == "M104"}
+    assert min(targets) <= 190 and max(targets) >= 210
+    straddling = _design(tmp_path, GAUSSIAN.format(expression="150 + x"))
+    with pytest.raises(FgsliceError, match=re.escape("outside this machine's 170 .. 300 C")):
+        _slice(straddling, tmp_path, layer_height=0.4)
