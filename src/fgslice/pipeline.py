@@ -545,7 +545,7 @@ def _simulated_share(output, design: Design, placement, settings: Settings, pale
 
     size = material_palette(palette).size
     result = simulate(FilePath(output), design, placement, settings, palette_size=size)
-    return round(predicted_within_half_bin(result, size), 6)
+    return round(predicted_within_half_bin(result, result.palette_size or size), 6)
 
 
 def _sliver_warning(reassigned: list[tuple[int, float]], layers: int, settings: Settings) -> list[str]:

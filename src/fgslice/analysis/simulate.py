@@ -666,14 +666,21 @@ def simulate(
             f"{', '.join(names)}",
             hint="pass the design the G-code was sliced from (--design)",
         )
+    foaming = settings.dialect == "temperature" and len(design.materials) == 1
+    if foaming:  # the nozzle temperature is the graded quantity
+        from fgslice.analysis.thermal_states import print_levels, thermal_states
+
+        levels = print_levels(design, settings, header.settings.get("temperature_levels"))
+        design, settings, levels_count = thermal_states(design, settings, levels)
+        palette_size = levels_count  # one palette color per temperature level
     if settings.dialect == "temperature" and len(design.materials) != 2:
         raise SettingsError(
             f"the temperature dialect grades two materials; the design has {len(design.materials)}",
             hint="simulate with the profile the G-code was sliced for (--profile)",
         )
     size = palette_size or header.colors or (settings.tool_count if settings.dialect == "toolchanger" else settings.colors)
-    palette = header_palette(len(design.materials), size, header.palette or settings.palette,
-                             header.settings.get("temperature_levels"))
+    palette = header_palette(len(design.materials), size, "ends" if foaming else header.palette or settings.palette,
+                             None if foaming else header.settings.get("temperature_levels"))
     if placement is not None:
         offset = tuple(placement.offset)
     elif header.placement_offset is not None:
