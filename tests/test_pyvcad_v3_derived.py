@@ -256,3 +256,82 @@ def test_a_temperature_reaching_into_the_nozzle_range_drives_m104_and_is_refused
     straddling = _design(tmp_path, GAUSSIAN.format(expression="150 + x"))
     with pytest.raises(FgsliceError, match=re.escape("outside this machine's 170 .. 300 C")):
         _slice(straddling, tmp_path, layer_height=0.4)
+
+
+def test_attributes_sample_clone_and_tell_their_types(tmp_path):
+    from fgslice.compat import pyvcad as pv
+
+    a = pv.FloatAttribute("2 * x + d")
+    assert a.sample(1.5, 0, 0, -0.5) == pytest.approx(2.5) and a.return_type() is pv.Attribute.ReturnType.dbl
+    b = a.clone()
+    a.set_value(7.0)
+    assert (a.sample(1, 1, 1, 0), b.sample(1, 1, 1, 0)) == (7.0, 2.0)
+    colour = pv.Vec4Attribute()
+    colour.set_expression("x", "y", "z", "1")
+    rgba = colour.sample(0.1, 0.2, 0.3, 0)
+    assert isinstance(rgba, pv.Vec4) and rgba.values == pytest.approx((0.1, 0.2, 0.3, 1.0))
+    v = pv.Vec3Attribute(1, 2, 3)
+    v.set_value(3, 0, 4)
+    assert tuple(v.sample(0, 0, 0, 0)) == (3, 0, 4) and v.magnitude().sample(0, 0, 0, 0) == 5
+    assert not v.is_volume_backed() and v.return_type() is pv.Attribute.ReturnType.vec3
+    mats = pv.default_materials
+    fractions = pv.VolumeFractionsAttribute()
+    fractions.add_expression("x", mats.id("blue"))
+    fractions.add_value(0.25, mats.id("red"))
+    assert {m.name: f for m, f in fractions.sample(0.5, 0, 0, 0).items()} == {"blue": 0.5, "red": 0.25}
+    assert isinstance(fractions, pv.Attribute) and fractions.return_type() is pv.Attribute.ReturnType.vfm_ptr
+    assert pv.DefaultAttributes.COLOR_RGBA_TYPE is pv.Attribute.ReturnType.vec4
+    assert pv.DefaultAttributes.TOUGHNSS_TYPE is pv.DefaultAttributes.get_return_type_by_name("modulus")
+    assert pv.DefaultAttributes.get_return_type_by_name("volume_fractions") is pv.Attribute.ReturnType.vfm_ptr
+
+
+def test_converters_convert_one_point_of_samples():
+    from fgslice.compat import pyvcad as pv
+
+    table = pv.LookupTableConverter(["temperature"], ["flow_rate", "color_rgb"], [
+        pv.LookupTableEntry(220, [1.4, pv.Vec3(0, 0, 1)]), pv.LookupTableEntry(240, [0.8, pv.Vec3(1, 0, 0)])],
+        pv.InterpolationMode.LINEAR)
+    samples = pv.AttributeSamples()
+    samples.set_sample(pv.DefaultAttributes.TEMPERATURE, 235)
+    out = table.convert(samples)
+    assert out.get_sample("flow_rate") == pytest.approx(0.95) and tuple(out.get_sample("color_rgb")) == pytest.approx(
+        (0.75, 0, 0.25))
+    assert out.get_type("color_rgb") is pv.Attribute.ReturnType.vec3 and not out.has_sample("temperature")
+    assert table.required_attributes() == ["temperature"] and table.clone().output_attributes() == ["flow_rate", "color_rgb"]
+    expression = pv.ExpressionConverter(["hu"], ["modulus", "toughness"], ["hu * 1000 + 500", "0.5 * hu + 10"])
+    samples.set_sample("hu", 2.0)
+    assert expression.convert(samples).get_sample("toughness") == 11.0
+
+
+PYTHON_CONVERTER = """
+    class FoamFlow(pv.AttributeConverterBase):
+        def __init__(self):
+            super().__init__()
+
+        def required_attributes(self):
+            return [pv.DefaultAttributes.TEMPERATURE]
+
+        def output_attributes(self):
+            return [pv.DefaultAttributes.FLOW_RATE]
+
+        def convert(self, samples):
+            t = samples.get_sample(pv.DefaultAttributes.TEMPERATURE)
+            out = pv.AttributeSamples()
+            out.set_sample(pv.DefaultAttributes.FLOW_RATE, 1.3 if t < 205 else 0.9)
+            return out
+
+    bar = pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(40, 10, 2))
+    bar.set_attribute(pv.DefaultAttributes.TEMPERATURE, pv.FloatAttribute("200 + x / 2"))
+    root = pv.AttributeModifier(FoamFlow(), bar)
+"""
+
+
+def test_a_python_converter_derives_the_flow_that_scales_each_segment_s_extrusion(tmp_path):
+    design = _design(tmp_path, PYTHON_CONVERTER)
+    np.testing.assert_allclose(_values(design, "flow", [-15, 9, 11, 15], [0] * 4, [0] * 4), [130, 130, 90, 90])
+    settings, program, stats = _slice(design, tmp_path, profile="foam-lwpla", layer_height=0.4)
+    printed = (program.e > 0) & (program.length > 2) & (program.layer > 0)
+    x = ((program.start + program.end) / 2)[printed, 0] - stats["placement_offset"][0]
+    per_mm = program.e[printed] / program.length[printed]
+    cool, hot = np.median(per_mm[x < 5]), np.median(per_mm[x > 15])  # 205 C at x = 10
+    assert cool / hot == pytest.approx(1.3 / 0.9, rel=0.03)

@@ -27,6 +27,7 @@ evaluated on numpy arrays.
 
 from __future__ import annotations
 
+import copy
 import enum
 import numbers
 from collections.abc import Callable, Sequence
@@ -38,11 +39,14 @@ from fgslice.compat import context
 from fgslice.compat import pyvcad as v2
 from fgslice.compat.numba_standin import CFunc
 from fgslice.compat.pyvcad_v3_fields import FloatOps, Vec3Ops, derived
+from fgslice.compat.pyvcad_v3_samples import (TYPE_NAMES, AttributeSamples, ReturnType, convert_per_point,
+                                              return_type_by_name)
 from fgslice.design import api, lookup_tables, nodes
 from fgslice.design.attribute_ops import AverageFractions, ConvertAttributes, Reducer, ResolveConflicts
-from fgslice.design.attributes import ROLE_SPEEDS, Attribute
+from fgslice.design.attributes import ROLE_SPEEDS
+from fgslice.design.attributes import Attribute as AttributeNode
 from fgslice.design.cone import Cone as _ConeNode
-from fgslice.design.derived_fields import named_expression
+from fgslice.design.derived_fields import evaluate, named_expression
 from fgslice.design.expressions import compile_expression
 from fgslice.design.lookup_tables import Grid
 from fgslice.errors import DesignError
@@ -57,7 +61,7 @@ __all__ = [
     "version", "DefaultAttributes", "FloatAttribute", "Vec3Attribute", "Vec4Attribute", "VolumeFractionsAttribute",
     "Identity", "BBoxUnion", "BBoxIntersection", "Torus", "AttributeModifier", "LookupTableEntry",
     "LookupTableConverter", "ExpressionConverter", "InterpolationMode", "resolvers", "Vec4",
-    "DerivedFloatAttribute", "Cone", *_VDB_NAMES,
+    "DerivedFloatAttribute", "Cone", "Attribute", "AttributeSamples", "AttributeConverterBase", *_VDB_NAMES,
 ]
 
 
@@ -82,12 +86,19 @@ class _Names:
         "SUPPORT_MATERIAL_EXTRUSION_WIDTH", "TOP_INFILL_EXTRUSION_WIDTH", "TOP_SOLID_INFILL_SPEED",
     )
 
-    def __getattr__(self, name: str) -> str:
+    def __getattr__(self, name: str):
         if name in self._NAMES:
             return name.lower()
+        if name in TYPE_NAMES:
+            return return_type_by_name(TYPE_NAMES[name])
         if name.startswith("__"):
             raise AttributeError(name)
         raise v2._unsupported("DefaultAttributes", name)
+
+    @staticmethod
+    def get_return_type_by_name(name) -> ReturnType:
+        """The ``Attribute.ReturnType`` of a default attribute name."""
+        return return_type_by_name(name)
 
 
 DefaultAttributes = _Names()
@@ -193,16 +204,42 @@ def _scaled(field, factor: float):
     return scaled
 
 
-class _Attribute:
-    """Base of the attribute types: fields kept as given, attached by ``set_attribute``."""
+class Attribute:
+    """``pv.Attribute``, the base of the attribute types: fields kept as given, attached
+    by ``set_attribute``; ``sample(x, y, z, d)`` evaluates one point (mm), ``clone()``
+    copies, ``return_type()`` tells the kind of value."""
+
+    ReturnType = ReturnType
+    _type = ReturnType.dbl
 
     def __getattr__(self, name: str):
         if name.startswith("__"):
             raise AttributeError(name)
         raise v2._unsupported(type(self).__name__, name)
 
+    def return_type(self) -> ReturnType:
+        """``Attribute.ReturnType`` of the samples."""
+        return self._type
 
-class FloatAttribute(FloatOps, _Attribute):
+    def clone(self):
+        """An independent copy."""
+        return copy.deepcopy(self)
+
+    def is_volume_backed(self) -> bool:
+        """Whether the attribute samples a volume (never, in fgslice)."""
+        return False
+
+    def sample(self, x, y, z, d=0.0):
+        """The value at the point ``(x, y, z)`` with signed distance ``d`` (mm)."""
+        point = [np.array([v2._number("sample", n, v)]) for n, v in zip("xyzd", (x, y, z, d))]
+        return self._sample(point)
+
+
+def _point(field, point) -> float:
+    return float(evaluate(field, *point)[0])
+
+
+class FloatAttribute(FloatOps, Attribute):
     """``FloatAttribute(value)``: a constant, an expression string of ``x, y, z, d`` (and
     ``rho, phic, r, theta, phis``) or a ``@cfunc`` of ``(x, y, z, d)``; ``FloatAttribute()``
     is the constant 0 until ``set_value`` / ``set_expression`` / ``set_function``. The
@@ -218,16 +255,46 @@ class FloatAttribute(FloatOps, _Attribute):
         function sees ``d`` NaN when it is not given)."""
         return self.field
 
+    def _sample(self, point) -> float:
+        return _point(self.field, point)
 
-class _Vector(_Attribute):
-    """A vector attribute: one scalar field per channel."""
+
+class _Vector(Attribute):
+    """A vector attribute: one scalar field per channel (``set_value``,
+    ``set_expression``, ``set_function`` replace them all)."""
 
     _owner = ""
     _channels: tuple[str, ...] = ()
 
     def __init__(self, *args) -> None:
-        v2._overload(self._owner, args, {len(self._channels): ", ".join(self._channels)})
+        v2._overload(self._owner, args, {0: "", len(self._channels): ", ".join(self._channels)})
+        self.fields = tuple(_component(self._owner, c, a) for c, a in zip(self._channels, args)) if args else \
+            (0.0,) * len(self._channels)
+
+    def _set(self, method: str, kinds: tuple, args: tuple) -> None:
+        owner = f"{self._owner}.{method}"
+        v2._overload(owner, args, {len(self._channels): ", ".join(self._channels)})
+        if not all(isinstance(a, kinds) and not isinstance(a, bool) for a in args):
+            raise DesignError(f"{owner} takes {len(self._channels)} "
+                              f"{'numbers' if numbers.Real in kinds else 'strings' if str in kinds else '@cfunc functions'}",
+                              hint=_DOCS)
         self.fields = tuple(_component(self._owner, c, a) for c, a in zip(self._channels, args))
+
+    def set_value(self, *values) -> None:
+        """Constant channels."""
+        self._set("set_value", (numbers.Real,), values)
+
+    def set_expression(self, *expressions) -> None:
+        """One expression string per channel."""
+        self._set("set_expression", (str,), expressions)
+
+    def set_function(self, *functions) -> None:
+        """One ``@cfunc`` per channel."""
+        self._set("set_function", (CFunc,), functions)
+
+    def _sample(self, point):
+        values = [_point(f, point) for f in self.fields]
+        return v2.Vec3(*values) if len(values) == 3 else Vec4(*values)
 
     def to_fields(self) -> tuple:
         """Each channel's field, as :meth:`FloatAttribute.to_field`."""
@@ -238,13 +305,13 @@ class Vec3Attribute(Vec3Ops, _Vector):
     """``Vec3Attribute(x, y, z)``: three channels (``COLOR_RGB``: red, green, blue in 0-1);
     the channel and vector methods are :class:`~fgslice.compat.pyvcad_v3_fields.Vec3Ops`'."""
 
-    _owner, _channels = "Vec3Attribute", ("x", "y", "z")
+    _owner, _channels, _type = "Vec3Attribute", ("x", "y", "z"), ReturnType.vec3
 
 
 class Vec4Attribute(_Vector):
     """``Vec4Attribute(r, g, b, a)``: four channels (``COLOR_RGBA``: linear RGBA in 0-1)."""
 
-    _owner, _channels = "Vec4Attribute", ("r", "g", "b", "a")
+    _owner, _channels, _type = "Vec4Attribute", ("r", "g", "b", "a"), ReturnType.vec4
 
 
 class DerivedFloatAttribute(FloatAttribute):
@@ -260,13 +327,19 @@ class DerivedFloatAttribute(FloatAttribute):
                           hint=_DOCS)
 
 
-class VolumeFractionsAttribute(_Attribute):
-    """``VolumeFractionsAttribute([(field, material id), ...])`` or
-    ``VolumeFractionsAttribute([fields], [material ids])``: each field is the fraction of
-    its material (ids from ``default_materials.id(name)``)."""
+class VolumeFractionsAttribute(Attribute):
+    """``VolumeFractionsAttribute([(field, material id), ...])``,
+    ``VolumeFractionsAttribute([fields], [material ids])`` or ``VolumeFractionsAttribute()``
+    and ``add_expression`` / ``add_function`` / ``add_value``: each field is the fraction
+    of its material (ids from ``default_materials.id(name)``)."""
+
+    _type = ReturnType.vfm_ptr
 
     def __init__(self, *args) -> None:
-        v2._overload("VolumeFractionsAttribute", args, {1: "[(field, material), ...]", 2: "fields, materials"})
+        v2._overload("VolumeFractionsAttribute", args, {0: "", 1: "[(field, material), ...]", 2: "fields, materials"})
+        self.fields, self.materials, self.ids = [], [], []
+        if not args:
+            return
         if len(args) == 2:
             fields, materials = args
             if not isinstance(fields, Sequence) or not isinstance(materials, Sequence) or len(fields) != len(materials):
@@ -279,15 +352,46 @@ class VolumeFractionsAttribute(_Attribute):
                 raise DesignError("VolumeFractionsAttribute takes a list of (field, material id) pairs", hint=_DOCS)
         if not pairs:
             raise DesignError("VolumeFractionsAttribute needs at least one (field, material id) pair")
-        self.fields, self.materials = [], []
         for field, material in pairs:
-            if not isinstance(material, v2.MaterialId):
-                raise DesignError("VolumeFractionsAttribute: a material is an id from default_materials.id(name), "
-                                  f"got {material!r}", hint=_DOCS)
-            self.fields.append(_component("VolumeFractionsAttribute", "a fraction", field))
-            self.materials.append(material.name)
-        if len(set(self.materials)) != len(self.materials):
-            raise DesignError("VolumeFractionsAttribute: a material appears twice")
+            self._add("VolumeFractionsAttribute", field, material)
+
+    def _add(self, owner: str, field, material) -> None:
+        if not isinstance(material, v2.MaterialId):
+            raise DesignError(f"{owner}: a material is an id from default_materials.id(name), got {material!r}",
+                              hint=_DOCS)
+        if material.name in self.materials:
+            raise DesignError(f"{owner}: the material '{material.name}' appears twice")
+        self.fields.append(_component(owner, "a fraction", field))
+        self.materials.append(material.name)
+        self.ids.append(material)
+
+    def _pair(self, owner: str, kind: str, args: tuple) -> None:
+        """Add ``(definition, material)`` given as two arguments or one pair; ``kind``:
+        ``"number"``, ``"string"`` or ``"@cfunc"``."""
+        v2._overload(owner, args, {1: "(definition, material)", 2: "definition, material"})
+        pair = args if len(args) == 2 else args[0]
+        if isinstance(pair, str) or not isinstance(pair, Sequence) or len(pair) != 2:
+            raise DesignError(f"{owner} takes a {kind} and a material id, or one pair of them", hint=_DOCS)
+        field, material = pair
+        types = {"number": numbers.Real, "string": str, "@cfunc": CFunc}[kind]
+        if not isinstance(field, types) or isinstance(field, bool):
+            raise DesignError(f"{owner} takes a {kind} and a material id, got {field!r}", hint=_DOCS)
+        self._add(owner, field, material)
+
+    def add_expression(self, *args) -> None:
+        """Add ``(expression, material)``."""
+        self._pair("VolumeFractionsAttribute.add_expression", "string", args)
+
+    def add_function(self, *args) -> None:
+        """Add ``(@cfunc, material)``."""
+        self._pair("VolumeFractionsAttribute.add_function", "@cfunc", args)
+
+    def add_value(self, value, material) -> None:
+        """Add a constant fraction of ``material``."""
+        self._pair("VolumeFractionsAttribute.add_value", "number", (value, material))
+
+    def _sample(self, point) -> dict:
+        return {material: _point(field, point) for field, material in zip(self.fields, self.ids)}
 
 
 def set_attribute(node: v2.Node, name, attribute) -> None:
@@ -297,9 +401,12 @@ def set_attribute(node: v2.Node, name, attribute) -> None:
         raise DesignError(f"set_attribute: '{key}' takes a "
                           f"{'VolumeFractionsAttribute' if key == 'volume_fractions' else 'Float, Vec3 or Vec4 attribute'}"
                           f", got {type(attribute).__name__}", hint=_DOCS)
-    if not isinstance(attribute, _Attribute):
+    if not isinstance(attribute, Attribute):
         raise DesignError(f"set_attribute: an attribute is a pyvcad FloatAttribute, Vec3Attribute, Vec4Attribute or "
                           f"VolumeFractionsAttribute, got {type(attribute).__name__}", hint=_DOCS)
+    if isinstance(attribute, VolumeFractionsAttribute) and not attribute.fields:
+        raise DesignError("set_attribute: the VolumeFractionsAttribute has no materials yet",
+                          hint="add them with add_expression(expression, material) or add_value(value, material)")
     if key in ("color_rgb", "color_rgba") and not isinstance(attribute, Vec3Attribute if key == "color_rgb" else Vec4Attribute):
         raise DesignError(f"set_attribute: '{key}' takes a {'Vec3' if key == 'color_rgb' else 'Vec4'}Attribute, "
                           f"got {type(attribute).__name__}", hint=_DOCS)
@@ -481,7 +588,7 @@ def dress(node: v2.Node, built: nodes.Node, above: frozenset[str]) -> nodes.Node
             continue
         for channel, field in reversed(_channels(name, attribute)):
             if channel not in above:
-                built = Attribute(channel, nodes.Field(_node_field(field)), (built,), any_name=True)
+                built = AttributeNode(channel, nodes.Field(_node_field(field)), (built,), any_name=True)
     return built
 
 
@@ -689,7 +796,10 @@ def _names(owner: str, what: str, names, vectors: bool = False) -> tuple[str, ..
 
 
 class _Converter:
-    """Base of the converters: input and output attribute names, a function of arrays."""
+    """Base of the converters: input and output attribute names, :meth:`_arrays` (a
+    function of the inputs' arrays giving the outputs' channel arrays), and OpenVCAD's
+    point-wise API (``required_attributes()``, ``output_attributes()``,
+    ``convert(samples)``, ``clone()``)."""
 
     inputs: tuple[str, ...]
     outputs: tuple[str, ...]
@@ -699,8 +809,67 @@ class _Converter:
             raise AttributeError(name)
         raise v2._unsupported(type(self).__name__, name)
 
-    def convert(self, values: list[np.ndarray]) -> list[np.ndarray]:
+    def _io(self) -> tuple[tuple[str, ...], tuple[str, ...]]:
+        """The input and output attribute names."""
+        return self.inputs, self.outputs
+
+    def _arrays(self, values: list[np.ndarray]) -> list[np.ndarray]:
         raise NotImplementedError
+
+    def required_attributes(self) -> list[str]:
+        """The input attribute names."""
+        return list(self.inputs)
+
+    def output_attributes(self) -> list[str]:
+        """The output attribute names."""
+        return list(self.outputs)
+
+    def clone(self):
+        """An independent copy."""
+        return copy.deepcopy(self)
+
+    def convert(self, samples):
+        """The outputs at one point, from the inputs in ``samples`` (``AttributeSamples``)."""
+        if not isinstance(samples, AttributeSamples):
+            raise DesignError(f"{type(self).__name__}.convert takes a pv.AttributeSamples", hint=_DOCS)
+        values = [np.array([float(samples.get_sample(name))]) for name in self.inputs]
+        channels = [float(c[0]) for c in self._arrays(values)]
+        out = AttributeSamples()
+        for name in self.outputs:
+            width = _WIDTHS.get(name, 1)
+            part, channels = channels[:width], channels[width:]
+            out.set_sample(name, part[0] if width == 1 else v2.Vec3(*part) if width == 3 else Vec4(*part))
+        return out
+
+
+class AttributeConverterBase(_Converter):
+    """``pv.AttributeConverterBase``: subclass it in Python with
+    ``required_attributes()``, ``output_attributes()`` (lists of names: float attributes,
+    ``color_rgb``, ``color_rgba``) and ``convert(samples) -> AttributeSamples``, and pass
+    an instance to ``AttributeModifier``. fgslice calls ``convert`` once per point it
+    evaluates (slow: prefer a LookupTableConverter or ExpressionConverter)."""
+
+    def __init__(self) -> None:
+        pass
+
+    def required_attributes(self) -> list[str]:
+        raise DesignError(f"{type(self).__name__} must define required_attributes()", hint=_DOCS)
+
+    def output_attributes(self) -> list[str]:
+        raise DesignError(f"{type(self).__name__} must define output_attributes()", hint=_DOCS)
+
+    def convert(self, samples):
+        raise DesignError(f"{type(self).__name__} must define convert(samples)", hint=_DOCS)
+
+    def _io(self):
+        owner = type(self).__name__
+        return (_names(owner, "required_attributes()", self.required_attributes()),
+                _names(owner, "output_attributes()", self.output_attributes(), vectors=True))
+
+    def _arrays(self, values):
+        inputs, outputs = self._io()
+        return convert_per_point(self.convert, inputs, outputs, [_WIDTHS.get(n, 1) for n in outputs],
+                                 type(self).__name__)(values)
 
 
 class LookupTableConverter(_Converter):
@@ -786,7 +955,7 @@ class LookupTableConverter(_Converter):
         order = np.argsort([e.keys[i][0] for e in entries], kind="stable")
         return (np.array([entries[j].keys[i][0] for j in order]), np.array([entries[j].values[i] for j in order]))
 
-    def convert(self, values):
+    def _arrays(self, values):
         if self.mode is InterpolationMode.STEP and len(self.inputs) > 1:
             return [c for (keys, rows), t in zip(self._columns, values) for c in lookup_tables.step(keys, rows, t)]
         if len(self.inputs) == 2:
@@ -817,7 +986,7 @@ class ExpressionConverter(_Converter):
                 raise DesignError(f"{owner}: an expression is a string, got {text!r}")
             self._expressions.append(named_expression(owner, text, self.inputs, file=where.file, line=where.line or 1))
 
-    def convert(self, values):
+    def _arrays(self, values):
         return [e(list(values)) for e in self._expressions]
 
 
@@ -828,8 +997,8 @@ class AttributeModifier(v2.Node):
     def __init__(self, converter, child=None) -> None:
         super().__init__()
         if not isinstance(converter, _Converter):
-            raise DesignError(f"AttributeModifier: the converter is a pv.LookupTableConverter or pv.ExpressionConverter, "
-                              f"got {type(converter).__name__}", hint=_DOCS)
+            raise DesignError(f"AttributeModifier: the converter is a pv.LookupTableConverter, pv.ExpressionConverter "
+                              f"or a pv.AttributeConverterBase subclass, got {type(converter).__name__}", hint=_DOCS)
         self._converter = converter
         self._child = None if child is None else v2._child("AttributeModifier", child)
 
@@ -841,11 +1010,12 @@ class AttributeModifier(v2.Node):
         if self._child is None:
             raise DesignError("AttributeModifier has no child", hint="give it with set_child(node)")
         conv = self._converter
-        inputs = [_fgslice_name(n) for n in conv.inputs]
-        outputs = _output_channels(conv.outputs)
+        names_in, names_out = conv._io()
+        inputs = [_fgslice_name(n) for n in names_in]
+        outputs = _output_channels(names_out)
 
         def function(values):
-            converted = conv.convert([v / factor for v, (_, factor) in zip(values, inputs)])
+            converted = conv._arrays([v / factor for v, (_, factor) in zip(values, inputs)])
             return [np.asarray(c, dtype=float) * factor for c, (_, factor) in zip(converted, outputs)]
 
         return ConvertAttributes([n for n, _ in inputs], [n for n, _ in outputs], function, convert(self._child))
