@@ -335,3 +335,62 @@ def test_a_python_converter_derives_the_flow_that_scales_each_segment_s_extrusio
     per_mm = program.e[printed] / program.length[printed]
     cool, hot = np.median(per_mm[x < 5]), np.median(per_mm[x > 15])  # 205 C at x = 10
     assert cool / hot == pytest.approx(1.3 / 0.9, rel=0.03)
+
+
+RESOLVED = """
+    import pyvcad_attribute_resolver as resolver
+    resolver.clear_conversions()
+    table = [(0.3, 240), (0.6, 220), (1.0, 200)]
+    resolver.register_conversion("density", "temperature", lambda: pv.LookupTableConverter(
+        ["density"], ["temperature"], [pv.LookupTableEntry(d, t) for d, t in table], pv.InterpolationMode.LINEAR),
+        tags=["lw_pla"])
+    resolver.register_conversion("temperature", "flow_rate", lambda: pv.ExpressionConverter(
+        ["temperature"], ["flow_rate"], ["1 - (temperature - 200) / 100"]), tags=["lw_pla"])
+    resolver.register_conversion("density", "flow_rate", lambda: pv.ExpressionConverter(
+        ["density"], ["flow_rate"], ["density"]), name="direct", tags=["other"])
+    bar = pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(60, 12, 3))
+    bar.set_attribute(pv.DefaultAttributes.DENSITY, pv.FloatAttribute("0.65 + x / 85.7"))
+    root = resolver.adapt(bar, [pv.DefaultAttributes.TEMPERATURE, pv.DefaultAttributes.FLOW_RATE], tags=["lw_pla"])
+    assert bar.attribute_list() == ["density"]
+    assert sorted(root.attribute_list()) == ["density", "flow_rate", "temperature"]
+"""
+
+
+def test_the_attribute_resolver_chains_registered_conversions_to_what_the_machine_needs(tmp_path):
+    design = _design(tmp_path, RESOLVED)
+    x = np.array([-25.0, 0.0, 25.0])
+    density = 0.65 + x / 85.7
+    t = np.interp(density, [0.3, 0.6, 1.0], [240, 220, 200])
+    np.testing.assert_allclose(_values(design, "temperature", x, 0 * x, 0 * x), t)
+    np.testing.assert_allclose(_values(design, "flow", x, 0 * x, 0 * x), 100 * (1 - (t - 200) / 100))
+    _, program, _ = _slice(design, tmp_path, profile="foam-lwpla", layer_height=0.3)
+    targets = [e.target for e in program.temperatures if e.command == "M104" and e.target > 0]
+    assert min(targets) <= 212 and max(targets) >= 220  # 209 .. 222 C over the bar, 5 C levels
+
+
+AMBIGUOUS = """
+    import pyvcad_attribute_resolver as resolver
+    resolver.clear_conversions()
+    for name, factor in [("fast", 1.0), ("slow", 0.5)]:
+        resolver.register_conversion("density", "flow_rate", lambda f=factor: pv.ExpressionConverter(
+            ["density"], ["flow_rate"], [str(f) + " * density"]), name=name{priority})
+    bar = pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(20, 10, 2))
+    bar.set_attribute(pv.DefaultAttributes.DENSITY, pv.FloatAttribute(0.8))
+    root = resolver.adapt(bar, ["{target}"])
+"""
+
+
+@pytest.mark.parametrize("code,message", [
+    (AMBIGUOUS.format(priority="", target="flow_rate"), "2 chains of equal priority reach 'flow_rate': fast; slow"),
+    (AMBIGUOUS.format(priority="", target="infill_density"), "no chain of registered conversions reaches "
+                                                             "'infill_density' from the design's attributes (density)"),
+    ("import pyvcad_attribute_resolver as r\nr.register_foaming_conversions()", "its documentation does not publish"),
+])
+def test_the_attribute_resolver_refuses_ambiguous_missing_and_bundled_conversions(tmp_path, code, message):
+    with pytest.raises(FgsliceError, match=re.escape(message)):
+        _design(tmp_path, code)
+
+
+def test_the_attribute_resolver_prefers_the_higher_priority(tmp_path):
+    design = _design(tmp_path, AMBIGUOUS.format(priority=", priority=1 if name == 'slow' else 0", target="flow_rate"))
+    np.testing.assert_allclose(_values(design, "flow", [0.0], [0.0], [0.0]), [40.0])

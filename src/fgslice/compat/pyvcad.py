@@ -253,6 +253,12 @@ class Node:
 
         pyvcad_v3.set_attribute_conflict_resolver(self, name, resolver)
 
+    def attribute_list(self) -> list[str]:
+        """OpenVCAD 3: the attribute names of this node's design (:func:`fgslice.compat.pyvcad_v3.attribute_list`)."""
+        from fgslice.compat import pyvcad_v3
+
+        return pyvcad_v3.attribute_list(self)
+
 
 def _centred(center, node: nodes.Node) -> nodes.Node:
     return node if not any(center) else api.translate(center, node)

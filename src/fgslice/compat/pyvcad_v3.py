@@ -592,6 +592,19 @@ def dress(node: v2.Node, built: nodes.Node, above: frozenset[str]) -> nodes.Node
     return built
 
 
+def attribute_list(node: v2.Node) -> list[str]:
+    """``node.attribute_list()``: the OpenVCAD attribute names ``node``'s design has
+    (its own, its descendants', what its converters derive), in order of appearance."""
+    from fgslice.design.attributes import AttributeFields
+
+    built = v2.to_node(node)
+    back = {target: name for name, (target, _) in MACHINE_NAMES.items()}
+    names = [back.get(n, n.partition(".")[0]) for n in AttributeFields(built).names]
+    if any(isinstance(n, nodes.Fgrade) for n, *_ in nodes.walk(built)):
+        names.append("volume_fractions")
+    return list(dict.fromkeys(names))
+
+
 def _resolver_channels(name: str, built: nodes.Node) -> list[str]:
     """The fgslice attribute names below ``built`` that the OpenVCAD attribute ``name`` became."""
     from fgslice.design.attributes import AttributeFields
