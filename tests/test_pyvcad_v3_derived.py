@@ -394,3 +394,35 @@ def test_the_attribute_resolver_refuses_ambiguous_missing_and_bundled_conversion
 def test_the_attribute_resolver_prefers_the_higher_priority(tmp_path):
     design = _design(tmp_path, AMBIGUOUS.format(priority=", priority=1 if name == 'slow' else 0", target="flow_rate"))
     np.testing.assert_allclose(_values(design, "flow", [0.0], [0.0], [0.0]), [40.0])
+
+
+def test_mapped_lattices_are_the_metamaterial_builders_and_from_min_and_max_spans_its_corners(tmp_path):
+    mapped = _design(tmp_path, """
+        import pyvcad_metamaterials as mm
+        box = pv.RectPrism.FromMinAndMax(pv.Vec3(-12, -12, 0), pv.Vec3(12, 12, 8))
+        cells = mm.rectangular_cell_map((pv.Vec3(-12, -12, 0), pv.Vec3(12, 12, 8)), cells=(3, 3, 1))
+        sheet = pv.MappedImplicitLattice(cells, pv.ImplicitUnitCell.standard("gyroid"), "sheet", 1.2)
+        root = pv.Union(sheet, pv.Translate(40, 0, 0, box))
+    """)
+    built = _design(tmp_path, """
+        import pyvcad_metamaterials as mm
+        cells = mm.rectangular_cell_map((pv.Vec3(-12, -12, 0), pv.Vec3(12, 12, 8)), cells=(3, 3, 1))
+        root = pv.Union(mm.gyroid(cells, wall_thickness=1.2), pv.RectPrism(pv.Vec3(40, 0, 4), pv.Vec3(24, 24, 8)))
+    """)
+    for a, b in zip(mapped.sections([1.0, 4.5]), built.sections([1.0, 4.5])):
+        assert a.area == pytest.approx(b.area, rel=1e-9) and a.area > 24 * 24 + 24 * 24 * 0.2
+    np.testing.assert_allclose(mapped.bounds(), built.bounds())
+
+
+def test_a_mapped_graph_lattice_is_the_graph_lattice_of_its_cell(tmp_path):
+    cell = textwrap.dedent("""
+        import pyvcad_metamaterials as mm
+        cells = mm.rectangular_cell_map((pv.Vec3(0, 0, 0), pv.Vec3(20, 20, 10)), cells=(2, 2, 1))
+        cell = pv.GraphUnitCell([pv.Vec3(0, 0, 0), pv.Vec3(1, 1, 1), pv.Vec3(1, 0, 0)], [(0, 1), (0, 2)])
+    """)
+    mapped = _design(tmp_path, cell + "root = pv.MappedGraphLattice(cells, cell, 0.8)\n")
+    built = _design(tmp_path, cell + "root = mm.graph_lattice(cells, cell, beam_radius=0.8)\n")
+    for a, b in zip(mapped.sections([2.0, 7.0]), built.sections([2.0, 7.0])):
+        assert a.area == pytest.approx(b.area, rel=1e-9) and a.area > 0
+    with pytest.raises(FgsliceError, match="unit_cell is a pv.GraphUnitCell"):
+        _design(tmp_path, cell + "root = pv.MappedGraphLattice(cells, 'octet', 0.8)\n")

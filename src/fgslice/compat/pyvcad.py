@@ -291,6 +291,14 @@ class RectPrism(_Leaf):
         center, size = _vec3("RectPrism", "center", center), _vec3("RectPrism", "size", size)
         super().__init__(_centred(center, api.rectprism(size, material=_material("RectPrism", material))))
 
+    @staticmethod
+    def FromMinAndMax(min, max) -> RectPrism:  # noqa: A002 - OpenVCAD's argument names
+        """OpenVCAD 3: the box between the corners ``min`` and ``max`` (Vec3, mm)."""
+        lo, hi = _vec3("RectPrism.FromMinAndMax", "min", min), _vec3("RectPrism.FromMinAndMax", "max", max)
+        if not all(b > a for a, b in zip(lo, hi)):
+            raise DesignError(f"RectPrism.FromMinAndMax: max {tuple(hi)} must exceed min {tuple(lo)} on every axis")
+        return RectPrism(Vec3(*((a + b) / 2 for a, b in zip(lo, hi))), Vec3(*(b - a for a, b in zip(lo, hi))))
+
 
 class Sphere(_Leaf):
     """``Sphere(center, radius, material=1)`` or ``Sphere(cx, cy, cz, radius, material=1)``."""

@@ -37,6 +37,7 @@ import numpy as np
 from fgslice import __version__
 from fgslice.compat import context
 from fgslice.compat import pyvcad as v2
+from fgslice.compat import pyvcad_metamaterials as mm
 from fgslice.compat.numba_standin import CFunc
 from fgslice.compat.pyvcad_v3_fields import FloatOps, Vec3Ops, derived
 from fgslice.compat.pyvcad_v3_samples import (TYPE_NAMES, AttributeSamples, ReturnType, convert_per_point,
@@ -61,7 +62,8 @@ __all__ = [
     "version", "DefaultAttributes", "FloatAttribute", "Vec3Attribute", "Vec4Attribute", "VolumeFractionsAttribute",
     "Identity", "BBoxUnion", "BBoxIntersection", "Torus", "AttributeModifier", "LookupTableEntry",
     "LookupTableConverter", "ExpressionConverter", "InterpolationMode", "resolvers", "Vec4",
-    "DerivedFloatAttribute", "Cone", "Attribute", "AttributeSamples", "AttributeConverterBase", *_VDB_NAMES,
+    "DerivedFloatAttribute", "Cone", "Attribute", "AttributeSamples", "AttributeConverterBase",
+    "MappedImplicitLattice", "MappedGraphLattice", "CellMap", "ImplicitUnitCell", "GraphUnitCell", *_VDB_NAMES,
 ]
 
 
@@ -667,6 +669,35 @@ class Cone(v2._Leaf):
         if height <= 0:
             raise DesignError(f"Cone: the height must be positive, got {height:g}")
         super().__init__(_ConeNode(angle, height))
+
+
+class MappedImplicitLattice(v2._Leaf):
+    """``MappedImplicitLattice(cell_map, unit_cell, mode="sheet", wall_thickness=None,
+    level=None)``: ``pyvcad_metamaterials.tpms`` (rectangular maps; ``None``: its
+    defaults, 1 mm and 0)."""
+
+    def __init__(self, cell_map, unit_cell, mode="sheet", wall_thickness=None, level=None) -> None:
+        if not isinstance(unit_cell, mm.ImplicitUnitCell):
+            raise DesignError(f"MappedImplicitLattice: unit_cell is a pv.ImplicitUnitCell, got {unit_cell!r}",
+                              hint="pv.ImplicitUnitCell.standard('gyroid')")
+        built = mm.tpms(cell_map, unit_cell, mode, 1.0 if wall_thickness is None else wall_thickness,
+                        0.0 if level is None else level)
+        super().__init__(built._node)
+
+
+class MappedGraphLattice(v2._Leaf):
+    """``MappedGraphLattice(cell_map, unit_cell, beam_radius, node_radius=None,
+    curve_tolerance=0.05)``: ``pyvcad_metamaterials.graph_lattice`` (rectangular maps)."""
+
+    def __init__(self, cell_map, unit_cell, beam_radius, node_radius=None, curve_tolerance=0.05) -> None:
+        if not isinstance(unit_cell, mm.GraphUnitCell):
+            raise DesignError(f"MappedGraphLattice: unit_cell is a pv.GraphUnitCell, got {unit_cell!r}", hint=_DOCS)
+        built = mm.graph_lattice(cell_map, unit_cell, beam_radius, node_radius, curve_tolerance)
+        super().__init__(built._node)
+
+
+CellMap, ImplicitUnitCell, GraphUnitCell = mm.CellMap, mm.ImplicitUnitCell, mm.GraphUnitCell
+"""The metamaterial module's cell maps and unit cells, under ``pyvcad`` as in OpenVCAD."""
 
 
 _VDB_REASON = {
