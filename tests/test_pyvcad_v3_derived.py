@@ -97,7 +97,8 @@ def test_setters_replace_the_definition_and_a_derived_attribute_is_immutable(tmp
     ("root = pv.SignedDistanceField('part.vdb')", "pyvcad.SignedDistanceField is not supported by fgslice: its data "
                                                   "is an OpenVDB grid"),
     ("v = pv.vdb_loader.load_float_volume('model.vdb', 'density')", "pyvcad.vdb_loader is not supported"),
-    ("v = pv.DICOMLoader('scans')", "does not read DICOM"),
+    ("v = pv.DICOMLoader('scans')", "DICOMLoader: 'scans' is not a folder"),
+    ("v = pv.Vec3sVolume()", "pyvcad.Vec3sVolume is not supported by fgslice: its data is an OpenVDB grid"),
 ])
 def test_bad_derived_attributes_cones_and_volume_data_fail_at_the_scripts_line(tmp_path, code, message):
     with pytest.raises(FgsliceError, match=re.escape(message)) as caught:

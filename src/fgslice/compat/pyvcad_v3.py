@@ -31,6 +31,8 @@ import copy
 import enum
 import numbers
 from collections.abc import Callable, Sequence
+from os import PathLike
+from pathlib import Path
 
 import numpy as np
 
@@ -50,20 +52,21 @@ from fgslice.design.cone import Cone as _ConeNode
 from fgslice.design.derived_fields import evaluate, named_expression
 from fgslice.design.expressions import compile_expression
 from fgslice.design.lookup_tables import Grid
+from fgslice.design.volumes import ScalarVolume, load_dicom_series
 from fgslice.errors import DesignError
 
 _DOCS = "see the OpenVCAD 3 section of docs/language.md"
 
-_VDB_NAMES = ("SignedDistanceField", "FloatVolume", "Vec2sVolume", "Vec3sVolume", "Vec4sVolume", "vdb_loader",
-              "DICOMLoader")
-"""OpenVCAD names of volume data (OpenVDB grids, DICOM stacks), refused with the reason."""
+_VDB_NAMES = ("SignedDistanceField", "Vec2sVolume", "Vec3sVolume", "Vec4sVolume", "vdb_loader")
+"""OpenVCAD names of OpenVDB data, refused with the reason."""
 
 __all__ = [
     "version", "DefaultAttributes", "FloatAttribute", "Vec3Attribute", "Vec4Attribute", "VolumeFractionsAttribute",
     "Identity", "BBoxUnion", "BBoxIntersection", "Torus", "AttributeModifier", "LookupTableEntry",
     "LookupTableConverter", "ExpressionConverter", "InterpolationMode", "resolvers", "Vec4",
     "DerivedFloatAttribute", "Cone", "Attribute", "AttributeSamples", "AttributeConverterBase",
-    "MappedImplicitLattice", "MappedGraphLattice", "CellMap", "ImplicitUnitCell", "GraphUnitCell", *_VDB_NAMES,
+    "MappedImplicitLattice", "MappedGraphLattice", "CellMap", "ImplicitUnitCell", "GraphUnitCell", "FloatVolume",
+    "DICOMLoader", *_VDB_NAMES,
 ]
 
 
@@ -174,6 +177,8 @@ def _component(owner: str, what: str, value):
         where = context.site()
         compile_expression(value, file=where.file, line=where.line or 1)
         return value
+    if isinstance(value, FloatVolume):
+        return value.volume
     if isinstance(value, CFunc):
         if value.arity != 4:
             raise DesignError(f"{owner}: the @cfunc '{value.__name__}' takes {value.arity} arguments; an attribute "
@@ -700,9 +705,54 @@ CellMap, ImplicitUnitCell, GraphUnitCell = mm.CellMap, mm.ImplicitUnitCell, mm.G
 """The metamaterial module's cell maps and unit cells, under ``pyvcad`` as in OpenVCAD."""
 
 
-_VDB_REASON = {
-    "DICOMLoader": "fgslice does not read DICOM stacks",
-}
+class FloatVolume:
+    """A scalar volume (from ``DICOMLoader(folder).as_volume()``): ``sample(x, y, z)``
+    (trilinear, mm), ``bounding_box()`` (the voxels' outer corners, two Vec3), ``clone()``;
+    ``FloatAttribute(volume)`` makes it a field (:class:`fgslice.design.volumes.ScalarVolume`)."""
+
+    def __init__(self, volume: ScalarVolume) -> None:
+        self.volume = volume
+
+    def __getattr__(self, name: str):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        raise v2._unsupported("FloatVolume", name)
+
+    def sample(self, x, y, z) -> float:
+        """The value at ``(x, y, z)`` (mm)."""
+        return float(self.volume(*(np.array([v2._number("FloatVolume.sample", n, v)]) for n, v in zip("xyz", (x, y, z))))[0])
+
+    def bounding_box(self) -> tuple:
+        """``(min, max)`` corners of the voxels (Vec3, mm)."""
+        lo, hi = self.volume.bounds()
+        return v2.Vec3(*lo), v2.Vec3(*hi)
+
+    def clone(self) -> FloatVolume:
+        """The same volume (volumes are read-only)."""
+        return FloatVolume(self.volume)
+
+
+class DICOMLoader:
+    """``DICOMLoader(folder)``: the DICOM series in ``folder`` (pydicom;
+    :func:`fgslice.design.volumes.load_dicom_series`); ``as_volume()`` gives its
+    FloatVolume (rescaled values, commonly HU)."""
+
+    def __init__(self, folder) -> None:
+        if not isinstance(folder, (str, PathLike)):
+            raise DesignError(f"DICOMLoader: the folder is a path, got {folder!r}")
+        path, run = Path(folder), context.current()
+        if not path.is_absolute() and run is not None and (run.path.resolve().parent / path).is_dir():
+            path = run.path.resolve().parent / path  # the script's folder, then the cwd, as for meshes
+        self._volume = FloatVolume(load_dicom_series(path))
+
+    def __getattr__(self, name: str):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        raise v2._unsupported("DICOMLoader", name)
+
+    def as_volume(self) -> FloatVolume:
+        """The series' FloatVolume."""
+        return self._volume
 
 
 class _Refused:
@@ -712,9 +762,8 @@ class _Refused:
         self._name = name
 
     def _refuse(self) -> DesignError:
-        reason = _VDB_REASON.get(self._name, "its data is an OpenVDB grid, and no maintained Python package on "
-                                             "PyPI reads OpenVDB files")
-        return DesignError(f"pyvcad.{self._name} is not supported by fgslice: {reason}",
+        return DesignError(f"pyvcad.{self._name} is not supported by fgslice: its data is an OpenVDB grid, and no "
+                           "maintained Python package on PyPI reads OpenVDB files",
                            hint="give the field as an expression or a @cfunc, or the shape as a Mesh (STL, OBJ, 3MF)")
 
     def __call__(self, *args, **kwargs):

@@ -141,6 +141,14 @@ class FloatOps:
             raise DesignError("FloatAttribute.set_function takes a @cfunc", hint=_DOCS)
         self._define(function)
 
+    def set_volume(self, volume) -> None:
+        """Make this attribute the trilinear samples of the FloatVolume ``volume``."""
+        from fgslice.compat.pyvcad_v3 import FloatVolume
+
+        if not isinstance(volume, FloatVolume):
+            raise DesignError(f"FloatAttribute.set_volume takes a FloatVolume, got {type(volume).__name__}", hint=_DOCS)
+        self._define(volume)
+
     def _define(self, definition) -> None:
         from fgslice.compat.pyvcad_v3 import _component
 
