@@ -427,3 +427,30 @@ def test_a_mapped_graph_lattice_is_the_graph_lattice_of_its_cell(tmp_path):
         assert a.area == pytest.approx(b.area, rel=1e-9) and a.area > 0
     with pytest.raises(FgsliceError, match="unit_cell is a pv.GraphUnitCell"):
         _design(tmp_path, cell + "root = pv.MappedGraphLattice(cells, 'octet', 0.8)\n")
+
+
+def test_a_python_converter_computing_with_arrays_is_called_once_and_a_branching_one_per_point():
+    from fgslice.compat import pyvcad as pv
+    from fgslice.compat.pyvcad_v3_samples import convert_per_point
+
+    calls = []
+
+    def with_numpy(samples):
+        calls.append("numpy")
+        out = pv.AttributeSamples()
+        out.set_sample("modulus", np.sqrt(samples.get_sample("density")) * 10)
+        return out
+
+    def branching(samples):
+        calls.append("branch")
+        out = pv.AttributeSamples()
+        out.set_sample("modulus", 1.0 if samples.get_sample("density") < 0.5 else 2.0)
+        return out
+
+    density = np.array([0.1, 0.4, np.nan, 0.6, 0.9])
+    (modulus,) = convert_per_point(with_numpy, ["density"], ["modulus"], [1], "Numpy")([density])
+    np.testing.assert_allclose(modulus, 10 * np.sqrt(density))
+    (step,) = convert_per_point(branching, ["density"], ["modulus"], [1], "Branch")([density])
+    np.testing.assert_allclose(step, [1, 1, np.nan, 2, 2])
+    # numpy: one call on the arrays; branching: a failed array call, then one per defined point
+    assert calls == ["numpy", "branch"] + ["branch"] * 4

@@ -62,7 +62,8 @@ def __getattr__(name: str):
     from fgslice.compat import pyvcad_v3
 
     if name in pyvcad_v3.__all__:
-        return getattr(pyvcad_v3, name)
+        value = globals()[name] = getattr(pyvcad_v3, name)  # found once: later look-ups skip this function
+        return value
     raise _unsupported("pyvcad", name)
 
 

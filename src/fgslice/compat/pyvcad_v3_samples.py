@@ -83,12 +83,16 @@ class AttributeSamples:
 
 
 def _key(name) -> str:
+    if type(name) is str and name.islower() and name.strip() == name and name:
+        return name
     if not isinstance(name, str) or not name.strip():
         raise DesignError(f"AttributeSamples: an attribute name is a string, got {name!r}")
     return name.strip().lower()
 
 
 def _sample_value(name, value):
+    if type(value) is float:  # the common case first: one call per point
+        return value
     from fgslice.compat.pyvcad import Vec3
     from fgslice.compat.pyvcad_v3 import Vec4
 
@@ -96,35 +100,58 @@ def _sample_value(name, value):
         return value
     if isinstance(value, numbers.Real) and not isinstance(value, bool):
         return float(value)
+    if isinstance(value, np.ndarray) and value.dtype.kind == "f":  # a whole-array call (convert_per_point)
+        return value
     raise DesignError(f"AttributeSamples.set_sample('{name}'): a sample is a number, Vec3 or Vec4, got "
                       f"{type(value).__name__}", hint="fgslice converts to float and colour attributes")
 
 
 def _channels(value) -> tuple[float, ...]:
+    if type(value) is float:
+        return (value,)
     from fgslice.compat.pyvcad import Vec3
 
-    if isinstance(value, float):
-        return (value,)
     return tuple(value) if isinstance(value, Vec3) else value.values
 
 
 def convert_per_point(convert: Callable, inputs: Sequence[str], outputs: Sequence[str], widths: Sequence[int],
                       owner: str) -> Callable[[list[np.ndarray]], list[np.ndarray]]:
     """A function of the inputs' arrays giving the outputs' channel arrays, calling
-    ``convert(samples) -> AttributeSamples`` at each point (``widths``: channels per
-    output). Points where an input is NaN give NaN."""
+    ``convert(samples) -> AttributeSamples`` (``widths``: channels per output): once with
+    whole float arrays as the samples when it computes with them (arithmetic, numpy),
+    else (a branch on a value, ``math`` functions) at each point. Points where an input
+    is NaN give NaN."""
+    state = {"per_point": False}
+
+    def whole(columns: list[np.ndarray]) -> list[np.ndarray] | None:
+        samples = AttributeSamples()
+        samples._values.update(zip(inputs, columns))
+        try:
+            with np.errstate(all="ignore"):
+                result = convert(samples)
+            if not isinstance(result, AttributeSamples) or any(w != 1 for w in widths):
+                return None
+            out = [np.broadcast_to(np.asarray(result.get_sample(name), dtype=float), columns[0].shape)
+                   for name in outputs]
+        except (TypeError, ValueError, DesignError):
+            return None
+        known = np.all([np.isfinite(c) for c in columns], axis=0)
+        return [np.where(known, o, np.nan) for o in out]
 
     def function(values: list[np.ndarray]) -> list[np.ndarray]:
         shape = np.broadcast_shapes(*map(np.shape, values))
         columns = [np.broadcast_to(v, shape).ravel() for v in values]
+        if not state["per_point"]:
+            out = whole([np.array(c, dtype=float) for c in columns])
+            if out is not None:
+                return [o.reshape(shape) for o in out]
+            state["per_point"] = True
         out = np.full((int(np.prod(shape)), sum(widths)), np.nan)
-        for i in range(out.shape[0]):
-            point = [float(c[i]) for c in columns]
-            if not all(np.isfinite(point)):
-                continue
+        known = np.flatnonzero(np.all([np.isfinite(c) for c in columns], axis=0))
+        points = np.column_stack(columns)[known].tolist()
+        for i, point in zip(known.tolist(), points):
             samples = AttributeSamples()
-            for name, value in zip(inputs, point):
-                samples._values[name] = value
+            samples._values.update(zip(inputs, point))
             result = convert(samples)
             if not isinstance(result, AttributeSamples):
                 raise DesignError(f"{owner}.convert must return a pv.AttributeSamples, got {type(result).__name__}",
