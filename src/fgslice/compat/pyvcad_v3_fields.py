@@ -143,7 +143,7 @@ class FloatOps:
 
     def set_volume(self, volume) -> None:
         """Make this attribute the trilinear samples of the FloatVolume ``volume``."""
-        from fgslice.compat.pyvcad_v3 import FloatVolume
+        from fgslice.compat.pyvcad_v3_leaves import FloatVolume
 
         if not isinstance(volume, FloatVolume):
             raise DesignError(f"FloatAttribute.set_volume takes a FloatVolume, got {type(volume).__name__}", hint=_DOCS)
