@@ -277,6 +277,28 @@ SAMPLED_CELL = 4
 """Fine cell of sampled sections, in ``spacing``: 0.4 mm at the default spacing."""
 
 
+_KEPT_SECTIONS = 4
+"""Sampled sections each node keeps, the latest first: a layer's outline is asked again
+for its materials (:mod:`fgslice.design.membership`) and is not traced twice."""
+
+
+def _kept(trace: Callable[[Node, float, float], shapely.Geometry]):
+    """``trace(node, z, spacing)`` remembering its last :data:`_KEPT_SECTIONS` results per node."""
+
+    @functools.wraps(trace)
+    def kept(node: Node, z: float, spacing: float) -> shapely.Geometry:
+        memory = node.__dict__.setdefault("_sampled", {})
+        key = (float(z), float(spacing))
+        if key not in memory:
+            memory[key] = trace(node, z, spacing)
+            for old in list(memory)[:-_KEPT_SECTIONS]:
+                del memory[old]
+        return memory[key]
+
+    return kept
+
+
+@_kept
 def sampled_section(node: Node, z: float, spacing: float) -> shapely.Geometry:
     """Outline of ``node`` at ``z`` traced on its sdf with cells of ``SAMPLED_CELL * spacing``
     mm, vertices within ``spacing / 20`` of the zero level."""
@@ -459,6 +481,7 @@ class FunctionShape(Primitive):
     def _bounds(self):
         return self.lo.copy(), self.hi.copy()
 
+    @_kept
     def _section(self, z, spacing):
         """The expression's region traced on its own values (not the box-clamped sdf),
         clipped to the box's rectangle exactly."""
