@@ -128,7 +128,7 @@ def _thin_lattice(node: Periodic, bead: float, scale: float) -> list[ThinLattice
     if heights.size > _MOST_SECTIONS:
         return None
     thickest.window = (lo, hi)
-    for name in ("_cached_bounds", "copies"):
+    for name in ("_cached_bounds", "copies", "_kept_sections"):
         thickest.__dict__.pop(name, None)
     spacing = min(0.1, width / 4)
     for section in thickest.sections(list(heights), spacing):
