@@ -289,7 +289,7 @@ def test_the_metamaterials_catalog_sections_hold_the_design_volume(script):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("script", ["catalog_sphere_fill.py", "concepts_cells.py"])
+@pytest.mark.parametrize("script", ["catalog_sphere_fill.py", "concepts_cells.py", "catalog_gallery.py"])
 def test_metamaterials_catalog_scripts_slice_to_their_volume(script, tmp_path):
     design = load_script(CATALOG / script)
     assert slice_volume(design, tmp_path, Path(script).stem) == pytest.approx(layered_volume(design, 0.3), rel=0.08)
