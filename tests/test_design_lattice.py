@@ -4,6 +4,7 @@ and OpenVCAD 3's metamaterials scripts (the guide's catalog) sliced, STL export.
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 import textwrap
@@ -203,6 +204,49 @@ def test_graph_cells_have_their_struts(name, count):
     assert len({frozenset(map(tuple, edge)) for edge in edges}) == count  # no strut twice
 
 
+def segment_gap(a, b, c, d):
+    """Least distance between the segments ab and cd (mm): the ends against the other
+    segment, and the crossing of their lines where it lies within both."""
+    def to_segment(p, a, b):
+        t = np.clip((p - a) @ (b - a) / ((b - a) @ (b - a)), 0, 1)
+        return float(np.linalg.norm(a + t * (b - a) - p))
+
+    gaps = [to_segment(a, c, d), to_segment(b, c, d), to_segment(c, a, b), to_segment(d, a, b)]
+    u, v, w = b - a, d - c, a - c
+    denominator = (u @ u) * (v @ v) - (u @ v) ** 2
+    if denominator > 1e-12:
+        t = ((u @ v) * (v @ w) - (v @ v) * (u @ w)) / denominator
+        k = ((u @ u) * (v @ w) - (u @ v) * (u @ w)) / denominator
+        if 0 <= t <= 1 and 0 <= k <= 1:
+            gaps.append(float(np.linalg.norm(a + t * u - c - k * v)))
+    return min(gaps)
+
+
+@pytest.mark.parametrize("name", mm.LATTICE_NAMES)
+def test_every_catalog_cell_holds_its_analytic_strut_volume(name):
+    """One cell of each graph lattice of the catalog, struts of radius r = s / 25: the
+    union of capsules lies between the cylinders plus a ball per vertex (above) and the
+    capsules minus every touching pair's overlap, at most the Steinmetz solid of their
+    axes (Bonferroni, below)."""
+    s, r = 10.0, 0.4
+    edges = graph_cell(name) * s
+    node = StrutLattice(edges, Length("t", "r", r))
+    lengths = np.linalg.norm(edges[:, 1] - edges[:, 0], axis=1)
+    vertices = {tuple(np.round(v, 9)) for v in edges.reshape(-1, 3)}
+    ball = 4 / 3 * math.pi * r**3
+    cylinders = float(np.sum(math.pi * r * r * lengths))
+    overlaps = 0.0
+    for i, j in itertools.combinations(range(len(edges)), 2):
+        if segment_gap(*edges[i], *edges[j]) > 2 * r:
+            continue
+        u, v = (edges[k][1] - edges[k][0] for k in (i, j))
+        sine = float(np.linalg.norm(np.cross(u, v)) / (np.linalg.norm(u) * np.linalg.norm(v)))
+        capsule = min(math.pi * r * r * lengths[k] + ball for k in (i, j))
+        overlaps += min(capsule, 16 * r**3 / (3 * sine)) if sine > 1e-9 else capsule
+    volume = section_volume(node, 0.1)
+    assert cylinders + len(edges) * ball - overlaps < volume < cylinders + len(vertices) * ball
+
+
 def test_an_endless_tile_is_refused_by_name(tmp_path):
     path = tmp_path / "tile.py"
     path.write_text(textwrap.dedent("""\
@@ -245,7 +289,7 @@ def test_the_metamaterials_catalog_sections_hold_the_design_volume(script):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("script", ["catalog_sphere_fill.py", "concepts_cells.py"])
+@pytest.mark.parametrize("script", ["catalog_sphere_fill.py", "concepts_cells.py", "catalog_gallery.py"])
 def test_metamaterials_catalog_scripts_slice_to_their_volume(script, tmp_path):
     design = load_script(CATALOG / script)
     assert slice_volume(design, tmp_path, Path(script).stem) == pytest.approx(layered_volume(design, 0.3), rel=0.08)

@@ -82,7 +82,7 @@ def test_points_at_several_heights_use_the_distances(three_meshes):
     assert list(_expected_owner(three_meshes, x, y, z)) == [0, 1, 2, 2]
 
 
-def test_only_exact_mesh_subtrees_use_sections(tmp_path):
+def test_mesh_subtrees_use_sections(tmp_path):
     trimesh.creation.box((4, 4, 4)).export(tmp_path / "m.stl")
     design = parse_design(
         """union() {
@@ -95,5 +95,41 @@ def test_only_exact_mesh_subtrees_use_sections(tmp_path):
         }""",
         file=tmp_path / "d.vcad",
     )
-    # a tilted mesh sections exactly (its vertices are rotated); a tilted sphere is sampled
-    assert [membership.uses_sections(c) for c in design.root.children] == [True, False, False, True, True, False]
+    # every child holding a mesh (also beside a sampled function or a tilted sphere)
+    assert [membership.uses_sections(c) for c in design.root.children] == [True, False, True, True, True, True]
+
+
+def test_a_gyroid_filled_mesh_decides_a_plane_without_3d_mesh_distances(tmp_path, monkeypatch):
+    """A mesh intersected with a sampled gyroid function, then a plain mesh (OpenVCAD's
+    keychain): points of a plane follow the sections, and agree with the distance rule."""
+    trimesh.creation.box((30, 20, 4)).export(tmp_path / "m.stl")
+    design = parse_design(
+        """union() {
+            intersection() {
+                mesh("m.stl", "red");
+                function((-20,-20,-5),(20,20,5), "sin(x)*cos(y)+sin(y)*cos(z)+sin(z)*cos(x)+0.5");
+            }
+            mesh("m.stl", "blue");
+        }""",
+        file=tmp_path / "d.vcad",
+    )
+    rng = np.random.default_rng(5)
+    x, y = rng.uniform(-14, 14, 3000), rng.uniform(-9, 9, 3000)
+    z = np.full_like(x, 0.7)
+    expected = _expected_owner(design, x, y, z)
+    d = design.root.children[0].sdf(x, y, z)
+    with monkeypatch.context() as patch:
+        patch.setattr(MeshGeometry, "sdf", lambda *args: (_ for _ in ()).throw(AssertionError("3-D mesh distance")))
+        owner = membership.owners(design.root.children, x, y, z)
+    clear = np.abs(d) > 0.05  # the gyroid's traced outline is within 0.005 mm of its level set
+    assert {0, 1} <= set(owner[clear])
+    assert np.array_equal(owner[clear], expected[clear])
+
+
+def test_a_child_the_plane_misses_owns_no_point_of_it(three_meshes, monkeypatch):
+    """At z = 6 only the tall body is cut: every point of the plane is its own, found
+    without a 3-D mesh distance to the two flat bodies below."""
+    monkeypatch.setattr(MeshGeometry, "sdf", lambda *args: pytest.fail("3-D mesh distance evaluated"))
+    x, y = np.meshgrid(np.linspace(-30, 30, 25), np.linspace(-20, 70, 30))
+    x, y = x.ravel(), y.ravel()
+    assert (membership.owners(three_meshes.root.children, x, y, np.full_like(x, 6.0)) == 2).all()

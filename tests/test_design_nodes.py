@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import shapely
 
-from fgslice.design import api
+from fgslice.design import api, nodes
 from fgslice.design.nodes import rotation_matrix
 
 
@@ -274,6 +274,8 @@ def test_sections_of_many_heights_equal_one_section_each_and_mesh_planes_are_cut
     design = api.design(tree)
     zs = [2.9, -1.0, 0.0, 0.5, 7.0, -2.95, 1.7, 3.5]
     one_each = [design.section(z) for z in zs]
+    for node, *_ in nodes.walk(tree):  # each node keeps its last outlines: start afresh
+        node.__dict__.pop("_kept_sections", None)
     batches = []
     original = _Tables._section_batch
     monkeypatch.setattr(_Tables, "_section_batch", lambda self, planes, gap: batches.append(len(planes)) or original(self, planes, gap))
@@ -282,6 +284,8 @@ def test_sections_of_many_heights_equal_one_section_each_and_mesh_planes_are_cut
     assert [g.wkb for g in together] == [g.wkb for g in one_each]
     assert together[4].is_empty and not together[0].is_empty
     assert all(isinstance(g, shapely.MultiPolygon) and g.is_valid for g in together)
+    again = design.sections(zs[-nodes.KEPT_SECTIONS:])  # the last outlines are kept, not cut again
+    assert batches == [6] and [g.wkb for g in again] == [g.wkb for g in one_each[-nodes.KEPT_SECTIONS:]]
 
 
 def test_transforms_map_all_heights_at_once_as_shapely_maps_each_section():

@@ -40,6 +40,7 @@ import shapely
 from fgslice.coverage import check_coverage, mesh_warnings, part_volume
 from fgslice.design.base import Design
 from fgslice.design.color_mix import mix_colors
+from fgslice.design.lattice_widths import check_lattice_widths
 from fgslice.errors import FgsliceError, SliceError
 from fgslice.executor import Consumer, default_jobs, map_ordered
 from fgslice.guards import check_resources
@@ -377,6 +378,7 @@ def slice_to_gcode(
     placement = place_design(design, settings)
     layers = layer_heights(design, settings)
     check_resources(design, settings, len(layers))
+    check_lattice_widths(design, settings.bead_width)
     bed_center = np.array([settings.bed_x / 2, settings.bed_y / 2])
     job = SliceJob(design, settings, palette, placement, layers, bed_center,
                    grading=SegmentGrading.of(attributes, placement.offset, settings),

@@ -209,6 +209,7 @@ class Periodic(Primitive):
         lo, hi = _as_box(lo, hi)
         self.window = (lo, hi) if self.window is None else (np.minimum(self.window[0], lo), np.maximum(self.window[1], hi))
         self.__dict__.pop("_cached_bounds", None)
+        self.__dict__.pop("_kept_sections", None)
 
     def _window(self) -> tuple[np.ndarray, np.ndarray]:
         if self.window is None:

@@ -5,13 +5,15 @@ outside all children, the nearest one. Deciding it with the children's signed di
 costs a 3-D distance per point and child, which for a mesh is the whole cost of finding
 materials. Points of one plane (all at the same ``z``, as the toolpath stages sample them
 layer by layer) are instead tested against the child's own section there (point in
-polygon), for every child whose section is exact and whose distance is costly (it
-contains a mesh). Outside every child, such a child's distance is the in-plane distance
-to its section (at least the 3-D distance, equal where the surface is vertical), or its
-3-D distance where the plane misses it.
+polygon), for every child whose distance is costly (it contains a mesh; parts of it
+that are sampled, such as a ``function``, give their traced outline). Outside every
+child, such a child's distance is the in-plane distance to its section (at least the
+3-D distance, equal where the surface is vertical); a child the plane misses is farther
+than any child the plane cuts, and only where the plane misses every child are the
+3-D distances compared.
 
-Sections are computed at the default spacing and kept for the last plane of each child
-(the stages ask for one layer many times, then move on).
+Sections are computed at the default spacing and kept for the last few planes of each
+child (the stages ask for one layer many times, at a few heights, then move on).
 """
 
 from __future__ import annotations
@@ -23,7 +25,9 @@ import numpy as np
 import shapely
 
 _PLANE_SECTIONS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-"""Child node -> (z, prepared section at z): the last plane each child was cut at."""
+"""Child node -> {z: prepared section at z}: the last planes each child was cut at."""
+_KEPT_PLANES = 4
+"""Planes kept per child: a layer's stages ask at its bottom, middle and top in turns."""
 _USES_SECTIONS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
@@ -44,6 +48,8 @@ def owners(children: Sequence, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> n
     outside = np.flatnonzero(~contained)
     if outside.size:
         d = np.stack([_outside_distance(c, distance[i], outside, x, y, z, by_section[i]) for i, c in enumerate(children)])
+        if np.isinf(d).all():  # the plane misses every child
+            d = np.stack([np.broadcast_to(c.sdf(x[outside], y[outside], z[outside]), outside.shape) for c in children])
         owner[outside] = np.argmin(d, axis=0)
     return owner
 
@@ -54,43 +60,31 @@ def _outside_distance(child, distance, index, x, y, z, by_section: bool) -> np.n
         return distance[index]
     section = _plane_section(child, float(z[0]))
     if section.is_empty:
-        return np.broadcast_to(child.sdf(x[index], y[index], z[index]), index.shape)
+        return np.full(index.shape, np.inf)
     return shapely.distance(section, shapely.points(x[index], y[index]))
 
 
 def uses_sections(node) -> bool:
-    """Whether ``node``'s points are located by its sections: all of its sections are
-    exact (no sampled part) and it contains a mesh."""
+    """Whether ``node``'s points are located by its sections: it contains a mesh."""
     known = _USES_SECTIONS.get(node)
     if known is None:
         from fgslice.design.nodes import walk
 
-        kinds = [n for n, *_ in walk(node)]
-        known = any(n.kind == "mesh" for n in kinds) and all(_exact(n) for n in kinds)
+        known = any(n.kind == "mesh" for n, *_ in walk(node))
         _USES_SECTIONS[node] = known
     return known
 
 
-def _exact(node) -> bool:
-    """Whether ``node`` itself computes its section without sampling its field."""
-    from fgslice.design.nodes import Affine, FunctionShape, Node, walk
-
-    if isinstance(node, FunctionShape):
-        return False
-    if isinstance(node, Affine):
-        tilted = node.moved_tree
-        return node.keeps_z_vertical or (tilted is not None and all(_exact(n) for n, *_ in walk(tilted)))
-    return type(node)._section is not Node._section or type(node)._sections is not Node._sections
-
-
 def _plane_section(child, z: float) -> shapely.Geometry:
     """``child``'s section at ``z`` (default spacing), prepared for point queries."""
-    cached = _PLANE_SECTIONS.get(child)
-    if cached is not None and cached[0] == z:
-        return cached[1]
+    kept = _PLANE_SECTIONS.setdefault(child, {})
+    if z in kept:
+        return kept[z]
     from fgslice.design.nodes import DEFAULT_SECTION_SPACING
 
     section = child.section(z, DEFAULT_SECTION_SPACING)
     shapely.prepare(section)
-    _PLANE_SECTIONS[child] = (z, section)
+    kept[z] = section
+    for old in list(kept)[:-_KEPT_PLANES]:
+        del kept[old]
     return section

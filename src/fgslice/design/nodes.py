@@ -241,14 +241,23 @@ class Node:
         return self.sections([z], spacing)[0]
 
     def sections(self, zs: Sequence[float], spacing: float) -> list[shapely.Geometry]:
-        """Outlines at every height of ``zs``, in order: empty outside the node's bounds."""
+        """Outlines at every height of ``zs``, in order: empty outside the node's bounds.
+        The last :data:`KEPT_SECTIONS` outlines are kept and not computed again (a layer's
+        outline is asked again for its materials, :mod:`fgslice.design.membership`)."""
         lo, hi = self.bounds()
         out = [_EMPTY] * len(zs)
         if np.any(lo > hi):
             return out
+        kept = self.__dict__.setdefault("_kept_sections", {})
         inside = [i for i, z in enumerate(zs) if lo[2] <= z <= hi[2]]
-        for i, outline in zip(inside, self._sections([float(zs[i]) for i in inside], spacing)):
+        for i in inside:
+            out[i] = kept.get((float(zs[i]), spacing))
+        missing = [i for i in inside if out[i] is None]
+        for i, outline in zip(missing, self._sections([float(zs[i]) for i in missing], spacing)):
             out[i] = outline
+            kept[(float(zs[i]), spacing)] = outline
+        for old in list(kept)[:-KEPT_SECTIONS]:
+            del kept[old]
         return out
 
     def _sections(self, zs: list[float], spacing: float) -> list[shapely.Geometry]:
@@ -272,6 +281,9 @@ class Node:
         """Whether :meth:`raw` can give the material ``void`` a fraction anywhere."""
         return bool(self.children) and self.children[0].can_be_void
 
+
+KEPT_SECTIONS = 4
+"""Outlines each node keeps, the latest computed (see :meth:`Node.sections`)."""
 
 SAMPLED_CELL = 4
 """Fine cell of sampled sections, in ``spacing``: 0.4 mm at the default spacing."""
