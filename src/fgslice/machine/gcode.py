@@ -36,7 +36,9 @@ built elsewhere) are formatted by the writer the same way.
 The statistics returned by :meth:`GcodeWriter.finish` are documented in ``docs/gcode.md``.
 The time estimate is :class:`~fgslice.machine.timing.TimeModel`'s: the written text is
 planned as the firmware plans it (acceleration, junction speeds), plus the dialect's fixed
-``change_time_s`` per state change.
+``change_time_s`` per state change. The writer plans it itself, or, when another process
+reads the file anyway (the slicer's verifier), that process plans it from what it reads
+and the writer takes its figure before writing the footer.
 """
 
 from __future__ import annotations
@@ -575,6 +577,9 @@ class GcodeWriter:
         grading: the design's instantaneous attributes
             (:class:`~fgslice.machine.grading.SegmentGrading`) for the paths it formats
             itself; None for none.
+        time_model: run the time model on the text written; False when another process
+            reads the file anyway (the verifier) and plans its moves there, handing the
+            time to :meth:`finish`.
     """
 
     def __init__(
@@ -589,6 +594,7 @@ class GcodeWriter:
         materials: Sequence[Material] = (),
         now: datetime | None = None,
         grading=None,
+        time_model: bool = True,
     ) -> None:
         self.out = out
         self.grading = grading
@@ -616,7 +622,9 @@ class GcodeWriter:
         self._e_written = 0.0
         self._stats_layers = 0
         self._travel_mm = 0.0
-        self._timing = TimeModel(settings)
+        self._timing = TimeModel(settings) if time_model else None
+        self._change_s = 0.0  # the dialect's fixed time of the state changes, s
+        self._ended = False
         self._state_changes = 0
         self._tool_changes = 0  # changes of the material color (of the tool on a toolchanger)
         self._retractions = 0
@@ -661,7 +669,8 @@ class GcodeWriter:
         lines += ["", fill_placeholders(s.start_gcode, self._temperature_values(), "start_gcode")]
         lines += self.dialect.start_commands() + ["M83", "M107", ""]
         body = "\n".join(lines)
-        self._timing.feed(body)
+        if self._timing:
+            self._timing.feed(body)
         self.out.write(text + body)
 
     def _temperature_values(self) -> dict[str, str]:
@@ -702,7 +711,8 @@ class GcodeWriter:
                 self._pos = None
         self._stats_layers += 1
         text = "".join(parts)
-        self._timing.feed(text)
+        if self._timing:
+            self._timing.feed(text)
         self.out.write(text)
 
     def _state_changes_before(self, layer: "_LayerPaths") -> tuple[np.ndarray, list[str], np.ndarray]:
@@ -739,7 +749,7 @@ class GcodeWriter:
         if previous is None or material_colors(self.palette, (previous,)) != material_colors(self.palette, (color,)):
             self._tool_changes += 1
         self._colors_used.add(color)
-        self._timing.add(self.dialect.change_time(previous, color))
+        self._change_s += self.dialect.change_time(previous, color)
         text = self._state_texts.get((previous, color))
         if text is None:
             text = self._state_texts[previous, color] = "\n".join(self.dialect.change_commands(previous, color)) + "\n"
@@ -978,18 +988,37 @@ class GcodeWriter:
         return _assemble(blocks, n, lengths)
 
     # -- footer ---------------------------------------------------------------------
-    def finish(self) -> dict:
-        """Write the end G-code and the footer; return the statistics (see docs/gcode.md)."""
+    def write_end(self) -> None:
+        """Write the end G-code (once; :meth:`finish` writes it if this was not called):
+        the last of the file the machine executes, what follows is comments."""
+        if self._ended:
+            return
+        self._ended = True
+        end = fill_placeholders(self.settings.end_gcode, self._temperature_values(), "end_gcode")
+        if self._timing:
+            self._timing.feed(end)
+        self.out.write("\n" + end)
+
+    def finish(self, planned_s: float | None = None) -> dict:
+        """Write the end G-code and the footer; return the statistics (see docs/gcode.md).
+
+        Args:
+            planned_s: seconds of the file's moves and dwells up to the end G-code as a
+                :class:`~fgslice.machine.timing.TimeModel` read elsewhere plans them
+                (with ``time_model=False``); None: this writer's own model's.
+        """
         s = self.settings
         filament_mm = self._e_written
         extruded = filament_mm * self.filament_area
         grams_per_mm3 = s.filament_density / 1000.0
-        end = fill_placeholders(s.end_gcode, self._temperature_values(), "end_gcode")
-        self._timing.feed(end)
-        time_s = self._timing.finish()
+        self.write_end()
+        if planned_s is None:
+            if self._timing is None:
+                raise ValueError("a writer without its time model needs the planned time")
+            planned_s = self._timing.finish()
+        time_s = planned_s + self._change_s
         footer = [
             "",
-            end,
             "",
             f"; filament used [mm] = {filament_mm:.2f}",
             f"; filament used [cm3] = {extruded / 1000.0:.2f}",

@@ -3,7 +3,8 @@
 :func:`read_gcode` returns a :class:`GcodeProgram`: one row per move in numpy arrays
 (start and end position in mm, filament length E in mm, feed rate in mm/min, line number,
 layer, role, process state, bead width) plus the events ``verify`` needs (temperature
-set points, tool selects, flow and mix commands, fan and PWM outputs).
+set points, tool selects, flow and mix commands, fan and PWM outputs, the commands at
+which the head may stop with a ``G4``'s dwell).
 :func:`iter_gcode` yields the same program in chunks of whole lines (global line
 numbers, state carried from chunk to chunk) so that long files are processed in
 bounded memory; :func:`read_gcode` joins its chunks.
@@ -40,6 +41,11 @@ MIX_LETTERS = "ABCDHI"
 TEXT_COMMANDS = frozenset({"M16", "M23", "M28", "M30", "M32", "M33", "M117", "M118", "M928",
                            *(f"M{n}" for n in range(810, 820))})
 """Marlin commands whose argument is text (a message, a file name, a macro), not words."""
+
+WAIT_COMMANDS = frozenset({"G4", "M400", "G28", "M109", "M190", "M600", "G92", "ACTIVATE_EXTRUDER",
+                           "SYNC_EXTRUDER_MOTION", "SET_EXTRUDER_ROTATION_DISTANCE"})
+"""Commands at which a firmware may stop the head (``T<n>`` too); :mod:`.timing` decides
+which of them stop it on which firmware."""
 
 _CODE = re.compile(r"[GMT]\d+(\.\d+)?$")
 """A command word the reader interprets the words of; others (Klipper's and hosts'
@@ -124,7 +130,8 @@ class GcodeProgram:
     length (arc length for G2/G3); ``line`` (M,) 1-based line numbers; ``layer`` (M,)
     0-based layer (-1 before the first layer change); ``role`` (M,) index into
     ``roles`` (-1 if none); ``state`` (M,) index into ``states``; ``width`` (M,) the last
-    ``;WIDTH:`` (NaN if none).
+    ``;WIDTH:`` (NaN if none). ``waits``: ``(line, command, dwell s)`` of each command at
+    which the head may stop (:data:`WAIT_COMMANDS`; ``T<n>`` as ``T``; the dwell of a ``G4``).
     """
 
     start: np.ndarray
@@ -148,6 +155,7 @@ class GcodeProgram:
     outputs: list[ValueEvent] = field(default_factory=list)
     faults: list[Fault] = field(default_factory=list)
     arcs: list[ArcExtent] = field(default_factory=list)
+    waits: list[tuple[int, str, float]] = field(default_factory=list)
     unknown_lines: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     line_count: int = 0
 
@@ -361,6 +369,7 @@ class _Events:
         self.mixes: list[ValueEvent] = []
         self.fans: list[ValueEvent] = []
         self.outputs: list[ValueEvent] = []
+        self.waits: list[tuple[int, str, float]] = []
         self.positional: list[tuple[int, str, dict[str, float], set[str]]] = []
         self.lines: list[int] = []
         self.after: list[tuple[int, int, int, float]] = [(self.layer, self.role, self.state, self.width)]
@@ -426,8 +435,12 @@ class _Events:
         cmd = words[0].upper()
         if cmd in TEXT_COMMANDS or not _CODE.match(cmd):  # a message, a file name, a host macro, NAME KEY=VALUE
             self.unknown.append(num)
+            if cmd in WAIT_COMMANDS:
+                self.waits.append((num, cmd, 0.0))
             return
         p = self._params(words, num)
+        if cmd in WAIT_COMMANDS or (cmd[0] == "T" and cmd[1:].isdecimal()):
+            self.waits.append((num, "T" if cmd[0] == "T" else cmd, _dwell(p) if cmd == "G4" else 0.0))
         if cmd[0] == "T" and cmd[1:].isdecimal():
             self.tool = int(cmd[1:])
             self.tools.append(ValueEvent(num, "T", {"T": float(self.tool)}))
@@ -483,6 +496,14 @@ class _Events:
         if now != self.after[-1]:
             self.lines.append(num)
             self.after.append(now)
+
+
+def _dwell(params: dict[str, float]) -> float:
+    """Seconds a ``G4`` waits: its first positive ``P`` (ms) or ``S`` (s); 0 for none."""
+    for key, value in params.items():
+        if key in ("P", "S") and value > 0:
+            return value / 1000.0 if key == "P" else value
+    return 0.0
 
 
 def _eight_digits(v: np.ndarray) -> np.ndarray:
@@ -951,6 +972,7 @@ class _Reader:
             outputs=events.outputs,
             faults=sorted(faults, key=lambda f: f.line),
             arcs=arc_extents,
+            waits=events.waits,
             unknown_lines=np.array(events.unknown, dtype=np.int64),
             line_count=self.line_count,
         )
@@ -1009,7 +1031,7 @@ def iter_gcode_blocks(blocks: Iterable[bytes], *, chunk_lines: int = CHUNK_LINES
 
 
 _ARRAY_FIELDS = ("start", "end", "e", "feed", "length", "line", "layer", "role", "state", "width", "unknown_lines")
-_EVENT_FIELDS = ("temperatures", "tools", "flows", "mixes", "fans", "outputs", "faults", "arcs")
+_EVENT_FIELDS = ("temperatures", "tools", "flows", "mixes", "fans", "outputs", "faults", "arcs", "waits")
 
 
 def read_gcode(path_or_text: str | os.PathLike | bytes, *, chunk_lines: int = CHUNK_LINES) -> GcodeProgram:
