@@ -857,7 +857,7 @@ class GcodeWriter:
         if not n:
             return []
         rows = rows[printed]
-        widths = layer.widths[printed]
+        widths = np.round(layer.widths[printed], 4)  # as ;WIDTH: writes them: a repeated line is left out
         starts, last = bodies.start[rows], bodies.end[rows]
 
         codes = layer.codes[printed]
