@@ -57,6 +57,7 @@ import fgslice
 from fgslice.errors import SettingsError
 from fgslice.design.attributes import ROLE_SPEEDS
 from fgslice.design.base import Material
+from fgslice.machine.arcs import fit_arcs
 from fgslice.machine.coasting import coast, wipe
 from fgslice.machine.dialects import PLACEHOLDER, Dialect, PaletteLike
 from fgslice.machine.grading import GRADING_SETTINGS, UNGRADED
@@ -243,6 +244,22 @@ def format_moves(x: np.ndarray, y: np.ndarray, e: np.ndarray) -> tuple[str, np.n
     return format_lines([("G1 X", x, XY_DECIMALS), (" Y", y, XY_DECIMALS), (" E", e, E_DECIMALS)])
 
 
+def format_arc_moves(x: np.ndarray, y: np.ndarray, turn: np.ndarray, offset: np.ndarray,
+                     e: np.ndarray) -> tuple[str, np.ndarray]:
+    """:func:`format_moves`, with ``G2`` (``turn`` -1) and ``G3`` (``turn`` 1) arcs, whose
+    centre is ``offset`` ``(n, 2)`` from their start, as ``G2 X Y I J E`` lines."""
+    n = len(x)
+    if n == 0:
+        return "", np.zeros(1, dtype=np.int64)
+    arc = (turn != 0).astype(np.uint8)
+    head, head_lengths = _line_blocks([("G1 X", x, XY_DECIMALS), (" Y", y, XY_DECIMALS)], "")
+    head[0] = _text_table(["G1 X", "G2 X", "G3 X"])[:, np.where(arc, np.where(turn < 0, 1, 2), 0)]
+    centre, centre_lengths = _line_blocks([(" I", offset[:, 0], XY_DECIMALS), (" J", offset[:, 1], XY_DECIMALS)], "")
+    tail, tail_lengths = _line_blocks([(" E", e, E_DECIMALS)], "\n")
+    return _assemble(head + [block * arc for block in centre] + tail, n,
+                     head_lengths + centre_lengths * arc + tail_lengths)
+
+
 @dataclass
 class PathBodies:
     """The moves of a run of paths, formatted, with what the writer needs to know of them.
@@ -341,14 +358,16 @@ def format_bodies(paths: list[Path], filament_area: float, grade=None) -> PathBo
 
 def format_packed(
     points: np.ndarray, sizes: np.ndarray, closed: np.ndarray, widths: np.ndarray, heights: np.ndarray,
-    filament_area: float, grade: LayerGrade | None = None,
+    filament_area: float, grade: LayerGrade | None = None, arc_tolerance: float = 0.0,
 ) -> PathBodies:
     """:func:`format_bodies` of paths given as columns: ``points`` ``(P, 2)`` mm, one path
     after another, ``sizes`` ``(n,)`` points per path, ``closed``, ``widths`` and
     ``heights`` (mm) ``(n,)``; ``filament_area`` mm^2. With ``grade``, every move is cut
     where the instantaneous attributes change (:meth:`SegmentGrading.cut`) and written
     with its E scaled by flow, its own F (feature speed times speed) and an ``M106 S``
-    before each piece whose fan differs from the previous piece's."""
+    before each piece whose fan differs from the previous piece's. With ``arc_tolerance``
+    (mm) > 0 and no ``grade``, runs of moves on a circle become ``G2``/``G3`` arcs within
+    that distance of them (:func:`~fgslice.machine.arcs.fit_arcs`), E following the arc's length."""
     n = len(sizes)
     counts = sizes + closed  # a closed path's vertices end at its first point again
     first = np.zeros(n + 1, dtype=np.int64)
@@ -383,6 +402,12 @@ def format_packed(
         n_moves = np.bincount(move_path, minlength=n)
         np.cumsum(n_moves, out=row_start[1:])
         scale = values["flow"] / 100.0 if "flow" in values else 1.0
+    fitted = None
+    if arc_tolerance > 0 and grade is None and len(moves):
+        fitted = fit_arcs(pts[first[:-1]], ends, move_path, arc_tolerance)
+        ends, lengths, move_path = fitted.ends, fitted.length, fitted.path
+        n_moves = np.bincount(move_path, minlength=n)
+        np.cumsum(n_moves, out=row_start[1:])
     exact = np.cumsum(lengths * scale * (bead_area(widths, heights) / filament_area)[move_path])
     exact -= np.concatenate([[0.0], exact])[row_start[:-1]][move_path]
     rounded = np.round(exact, 5)
@@ -390,7 +415,9 @@ def format_packed(
     printed = n_moves > 0
     e[row_start[:-1][printed]] = rounded[row_start[:-1][printed]]
     fan = commanded = None
-    if grade is None or not len(moves):
+    if fitted is not None and fitted.turn.any():
+        text, offsets = format_arc_moves(ends[:, 0], ends[:, 1], fitted.turn, fitted.offset, e)
+    elif grade is None or not len(moves):
         text, offsets = format_moves(ends[:, 0], ends[:, 1], e)
     else:
         fields = [("G1 X", ends[:, 0], XY_DECIMALS), (" Y", ends[:, 1], XY_DECIMALS), (" E", e, E_DECIMALS)]
@@ -457,8 +484,14 @@ def prepare_bodies(plan: LayerPlan, settings: Settings, grading=None) -> None:
     elif len(packed.roles):
         grade = layer_grade(grading, plan, settings, packed.roles.astype(np.int64))
         packed.data = format_packed(packed.points, np.diff(packed.offsets).astype(np.int64), packed.closed,
-                                    packed.widths, packed.heights, area, grade)
+                                    packed.widths, packed.heights, area, grade, arc_tolerance(settings))
         packed.rows = np.arange(len(packed.roles), dtype=np.int32)
+
+
+def arc_tolerance(settings: Settings) -> float:
+    """How far fitted arcs may leave the moves they replace, mm: ``gcode_resolution`` with
+    ``arc_fitting = emit_center``, else 0 (no arcs)."""
+    return settings.gcode_resolution if settings.arc_fitting == "emit_center" else 0.0
 
 
 def fill_placeholders(text: str, values: dict[str, str], what: str) -> str:

@@ -293,7 +293,9 @@ class TimeModel:
 
     def read(self, program: GcodeProgram) -> None:
         """Take the next chunk of a program read elsewhere (:func:`~.gcode_reader.iter_gcode`'s
-        chunks, say, in order): the same total as :meth:`feed` of its text."""
+        chunks, say, in order): the same total as :meth:`feed` of its text. Arcs are
+        planned as the straight pieces the firmware cuts them into."""
+        program = program.split_arcs()
         waits = [(line, dwell) for line, command, dwell in program.waits if command in self._waits]
         for _, dwell in waits:
             self.fixed_s += dwell
