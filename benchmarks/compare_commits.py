@@ -37,7 +37,22 @@ def rows_by_name(workdir: Path) -> dict[str, tuple[Path, tuple[str, ...]]]:
     design.write_text(f"mesh({json.dumps(str(run_all.BENCHY_STL))});\n")
     rows["single_benchy"] = (design, run_all.SINGLE_BENCHY_ARGS)
     rows["single_benchy_thumbnails"] = (design, run_all.SINGLE_BENCHY_ARGS + run_all.WITH_THUMBNAILS)
+    for name, height in (("box200", 150.0), ("box200_thin", 4.0)):
+        design = workdir / f"{name}.vcad"
+        design.write_text(box200_design(height))
+        rows[name] = (design, BOX200_ARGS)
     return rows
+
+
+BOX200_ARGS = ("--strategy", "2", "--colors", "16", "--layer-height", "0.2")
+"""The large part's slice: strategy 2, 16 colors, 0.2 mm layers."""
+
+
+def box200_design(height: float) -> str:
+    """A 200 x 200 mm box ``height`` mm high graded in 3-D: blue to yellow with the distance
+    from its centre (spherical bands, so every face boundary is curved)."""
+    return (f'fgrade(["clamp(0, r/250, 1)", "1 - clamp(0, r/250, 1)"], ["blue", "yellow"]) {{\n'
+            f"    rectprism(200, 200, {height:g});\n}}\n")
 
 
 def run_once(source: Path, design: Path, args: tuple[str, ...], out: Path, jobs: int) -> run_all.Run:

@@ -123,3 +123,24 @@ def _no_acceleration(text: str, settings) -> float:
     d = np.linalg.norm(program.end - program.start, axis=1)
     d = np.where(d > 0, d, np.abs(program.e))
     return float(np.sum(d / (program.feed / 60.0)))
+
+
+def test_chunks_read_elsewhere_give_the_time_of_the_text(monkeypatch):
+    """The verifier's chunks (any size) planned with :meth:`TimeModel.read` give the time
+    the writer's pieces give, also where a long run of moves is cut without a real stop."""
+    from fgslice.machine import timing
+    from fgslice.machine.gcode_reader import iter_gcode
+
+    monkeypatch.setattr(timing, "MAX_PENDING", 64)
+    settings = klipper(minimum_cruise_ratio="0.5")
+    lines = [f"G1 X{100 + 30 * math.cos(k / 7):.3f} Y{100 + 30 * math.sin(k / 5):.3f} E0.05 F{1200 + 60 * (k % 40)}"
+             for k in range(400)]
+    lines[150:150] = ["M400", "G1 E-0.8 F2100", "G4 P250"]
+    text = "M83\n" + "\n".join(lines) + "\n"
+    whole = estimate_time(text, settings)
+    for size in (7, 100, 1000):
+        model = TimeModel(settings)
+        for chunk in iter_gcode(text.encode(), chunk_lines=size):
+            model.read(chunk)
+        assert model.finish() == pytest.approx(whole, rel=1e-12)
+    assert whole > 0.25 + estimate_time("M83\n" + "\n".join(lines[153:]) + "\n", settings)

@@ -248,3 +248,13 @@ def test_thumbnails_of_a_mesh_are_drawn_from_the_layer_outlines(tmp_path):
         outputs.append(out.read_bytes())
         assert not {"_whole", "_distance", "_ray_counters"} & set(vars(geometry))
     assert outputs[0] == outputs[1]
+
+
+def test_a_width_is_written_once_while_it_stays_the_same(tmp_path):
+    """Strategy 2's concentric loops share one bead width: ``;WIDTH:`` is written when the
+    written value changes, not before every loop."""
+    _, _, _, out = _slice(api.design(api.rectprism(30, 30, 0.6)), tmp_path, strategy=2)
+    widths = [line for line in out.read_text().splitlines() if line.startswith(";WIDTH:")]
+    assert widths and all(a != b for a, b in zip(widths, widths[1:]))
+    loops = sum(1 for line in out.read_text().splitlines() if line.startswith("G0 "))
+    assert loops > 3 * len(widths)

@@ -48,6 +48,7 @@ from fgslice.interrupts import sigint_held
 from fgslice.machine.state_dialect import dialect_for
 from fgslice.machine.gcode import GcodeWriter, build_number_tables, prepare_bodies
 from fgslice.machine.grading import SegmentGrading, checked_attributes
+from fgslice.machine.timing import TimeModel
 from fgslice.machine.verify import FOLLOW_BLOCK_BYTES, follow_file, format_faults, verify_gcode, verify_gcode_blocks
 from fgslice.output import atomic_output
 from fgslice.planning.coasting import coasted_lengths
@@ -469,7 +470,7 @@ def slice_to_gcode(
             thumbnails = thumbnails()
         writer = GcodeWriter(
             handle, settings, palette, dialect, comments=header, thumbnails=thumbnails, materials=design.materials,
-            now=stamp or build_time(), grading=job.grading,
+            now=stamp or build_time(), grading=job.grading, time_model=follower is None,
         )
         writer.write_header()
         told = 0  # the file size the verifier was last told
@@ -484,14 +485,20 @@ def slice_to_gcode(
                 if untold >= FOLLOW_BLOCK_BYTES or (untold >= FOLLOW_BLOCK_BYTES / 4 and rest < FOLLOW_BLOCK_BYTES):
                     follower.send(size)
                     told = size
-        stats = writer.finish()
+        writer.write_end()
+        planned_s = None
+        if follower:
+            handle.flush()
+            os.fsync(handle.fileno())  # what is left of the disk write overlaps the verifier's last block
+            # the verifier reads up to the end G-code (the footer is comments), planning its moves
+            faults, planned_s = follower.result()
+        stats = writer.finish(planned_s)
         coverage = check_coverage(covered[0], covered[1], covered[2], uncovered[0], settings.strategy,
                                   settings.bead_width)
         handle.flush()
-        if follower:
-            os.fsync(handle.fileno())  # what is left of the disk write overlaps the verifier's last block
         if verify:
-            faults = follower.result() if follower else verify_gcode(FilePath(handle.name), settings)
+            if not follower:
+                faults = verify_gcode(FilePath(handle.name), settings)
             if faults:
                 raise SliceError(
                     "the G-code fails verification against the machine profile; nothing was written:\n"
@@ -602,11 +609,15 @@ def _render_thumbnails(messages: Iterator, render: Callable[[], Thumbnails]) -> 
     return tuple(render())
 
 
-def _verify_written(messages: Iterator, settings: Settings) -> list:
-    """Faults of the file being written: ``messages`` is its name, then its size after
-    each flush (see :func:`fgslice.machine.verify.follow_file`)."""
+def _verify_written(messages: Iterator, settings: Settings) -> tuple[list, float]:
+    """Faults of the file being written, and the seconds its moves and dwells take
+    (:class:`~fgslice.machine.timing.TimeModel`, planned from the same reading, so the
+    writer does not read its text a second time): ``messages`` is its name, then its size
+    after each flush (see :func:`fgslice.machine.verify.follow_file`)."""
     name = next(messages)
-    return verify_gcode_blocks(follow_file(name, messages), settings, name=name)
+    model = TimeModel(settings)
+    faults = verify_gcode_blocks(follow_file(name, messages), settings, name=name, also=model.read)
+    return faults, model.finish()
 
 
 def build_time() -> datetime | None:

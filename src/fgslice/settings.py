@@ -82,6 +82,7 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     temperature_step: Annotated[float, Meta(ge=0.5, le=100, description="a temperature attribute is commanded in levels this far apart (multiples of it), C")] = 5.0
     attribute_tolerance: Annotated[float, Meta(gt=0, le=100, description="largest change of a fan, flow or speed attribute over one extrusion piece, points of percent")] = 2.0
     gcode_resolution: Annotated[float, Meta(gt=0, le=1.0, description="how far simplification may move strategy 1's layer outlines (before walls, skins and infill) and its walls, mm")] = 0.0125
+    arc_fitting: Annotated[Literal["disabled", "emit_center"], Meta(description="disabled: straight moves only; emit_center: runs of short moves on a circle (within gcode_resolution) written as one G2/G3 with I J, as PrusaSlicer's arc_fitting (Marlin, Klipper with [gcode_arcs], RepRapFirmware; not on the template dialect)")] = "disabled"
 
     # -- placement -------------------------------------------------------------------
     center: Annotated[bool, Meta(description="center the part on the bed")] = True
@@ -192,6 +193,9 @@ class Settings(_Fields, kw_only=True, frozen=True, forbid_unknown_fields=True):
             raise ValueError("retract_acceleration must be > 0 or 'auto'")
         if self.purge_tolerance != "auto" and self.purge_tolerance <= 0:
             raise ValueError("purge_tolerance must be > 0 or 'auto'")
+        if self.arc_fitting != "disabled" and self.dialect == "template":
+            raise ValueError("arc_fitting writes G2/G3 arcs, which the template dialect's machine may not know; "
+                             "set arc_fitting = disabled, or use a Marlin, Klipper or RepRapFirmware dialect")
 
     def as_dict(self) -> dict[str, Any]:
         """Every setting by name, in declaration order."""

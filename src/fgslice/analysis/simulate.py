@@ -688,7 +688,8 @@ def simulate(
     else:
         offset = tuple(place_design(design, settings).offset)
     model = MeltModel.from_settings(settings, melt_volume_mm3)
-    chunks = [gcode] if isinstance(gcode, GcodeProgram) else iter_gcode(gcode)
+    # arcs (G2/G3) as the straight pieces the firmware prints them in
+    chunks = [gcode.split_arcs()] if isinstance(gcode, GcodeProgram) else (c.split_arcs() for c in iter_gcode(gcode))
     # a toolchanger's tool n prints material color n (whatever the temperature level)
     centers = material_palette(palette).centers if settings.dialect == "toolchanger" else palette.centers
     trace = trace_from_chunks(chunks, settings, centers, travels=model.kind == "thermal")

@@ -36,7 +36,9 @@ built elsewhere) are formatted by the writer the same way.
 The statistics returned by :meth:`GcodeWriter.finish` are documented in ``docs/gcode.md``.
 The time estimate is :class:`~fgslice.machine.timing.TimeModel`'s: the written text is
 planned as the firmware plans it (acceleration, junction speeds), plus the dialect's fixed
-``change_time_s`` per state change.
+``change_time_s`` per state change. The writer plans it itself, or, when another process
+reads the file anyway (the slicer's verifier), that process plans it from what it reads
+and the writer takes its figure before writing the footer.
 """
 
 from __future__ import annotations
@@ -55,6 +57,7 @@ import fgslice
 from fgslice.errors import SettingsError
 from fgslice.design.attributes import ROLE_SPEEDS
 from fgslice.design.base import Material
+from fgslice.machine.arcs import fit_arcs
 from fgslice.machine.coasting import coast, wipe
 from fgslice.machine.dialects import PLACEHOLDER, Dialect, PaletteLike
 from fgslice.machine.grading import GRADING_SETTINGS, UNGRADED
@@ -241,6 +244,22 @@ def format_moves(x: np.ndarray, y: np.ndarray, e: np.ndarray) -> tuple[str, np.n
     return format_lines([("G1 X", x, XY_DECIMALS), (" Y", y, XY_DECIMALS), (" E", e, E_DECIMALS)])
 
 
+def format_arc_moves(x: np.ndarray, y: np.ndarray, turn: np.ndarray, offset: np.ndarray,
+                     e: np.ndarray) -> tuple[str, np.ndarray]:
+    """:func:`format_moves`, with ``G2`` (``turn`` -1) and ``G3`` (``turn`` 1) arcs, whose
+    centre is ``offset`` ``(n, 2)`` from their start, as ``G2 X Y I J E`` lines."""
+    n = len(x)
+    if n == 0:
+        return "", np.zeros(1, dtype=np.int64)
+    arc = (turn != 0).astype(np.uint8)
+    head, head_lengths = _line_blocks([("G1 X", x, XY_DECIMALS), (" Y", y, XY_DECIMALS)], "")
+    head[0] = _text_table(["G1 X", "G2 X", "G3 X"])[:, np.where(arc, np.where(turn < 0, 1, 2), 0)]
+    centre, centre_lengths = _line_blocks([(" I", offset[:, 0], XY_DECIMALS), (" J", offset[:, 1], XY_DECIMALS)], "")
+    tail, tail_lengths = _line_blocks([(" E", e, E_DECIMALS)], "\n")
+    return _assemble(head + [block * arc for block in centre] + tail, n,
+                     head_lengths + centre_lengths * arc + tail_lengths)
+
+
 @dataclass
 class PathBodies:
     """The moves of a run of paths, formatted, with what the writer needs to know of them.
@@ -339,14 +358,16 @@ def format_bodies(paths: list[Path], filament_area: float, grade=None) -> PathBo
 
 def format_packed(
     points: np.ndarray, sizes: np.ndarray, closed: np.ndarray, widths: np.ndarray, heights: np.ndarray,
-    filament_area: float, grade: LayerGrade | None = None,
+    filament_area: float, grade: LayerGrade | None = None, arc_tolerance: float = 0.0,
 ) -> PathBodies:
     """:func:`format_bodies` of paths given as columns: ``points`` ``(P, 2)`` mm, one path
     after another, ``sizes`` ``(n,)`` points per path, ``closed``, ``widths`` and
     ``heights`` (mm) ``(n,)``; ``filament_area`` mm^2. With ``grade``, every move is cut
     where the instantaneous attributes change (:meth:`SegmentGrading.cut`) and written
     with its E scaled by flow, its own F (feature speed times speed) and an ``M106 S``
-    before each piece whose fan differs from the previous piece's."""
+    before each piece whose fan differs from the previous piece's. With ``arc_tolerance``
+    (mm) > 0 and no ``grade``, runs of moves on a circle become ``G2``/``G3`` arcs within
+    that distance of them (:func:`~fgslice.machine.arcs.fit_arcs`), E following the arc's length."""
     n = len(sizes)
     counts = sizes + closed  # a closed path's vertices end at its first point again
     first = np.zeros(n + 1, dtype=np.int64)
@@ -381,6 +402,12 @@ def format_packed(
         n_moves = np.bincount(move_path, minlength=n)
         np.cumsum(n_moves, out=row_start[1:])
         scale = values["flow"] / 100.0 if "flow" in values else 1.0
+    fitted = None
+    if arc_tolerance > 0 and grade is None and len(moves):
+        fitted = fit_arcs(pts[first[:-1]], ends, move_path, arc_tolerance)
+        ends, lengths, move_path = fitted.ends, fitted.length, fitted.path
+        n_moves = np.bincount(move_path, minlength=n)
+        np.cumsum(n_moves, out=row_start[1:])
     exact = np.cumsum(lengths * scale * (bead_area(widths, heights) / filament_area)[move_path])
     exact -= np.concatenate([[0.0], exact])[row_start[:-1]][move_path]
     rounded = np.round(exact, 5)
@@ -388,7 +415,9 @@ def format_packed(
     printed = n_moves > 0
     e[row_start[:-1][printed]] = rounded[row_start[:-1][printed]]
     fan = commanded = None
-    if grade is None or not len(moves):
+    if fitted is not None and fitted.turn.any():
+        text, offsets = format_arc_moves(ends[:, 0], ends[:, 1], fitted.turn, fitted.offset, e)
+    elif grade is None or not len(moves):
         text, offsets = format_moves(ends[:, 0], ends[:, 1], e)
     else:
         fields = [("G1 X", ends[:, 0], XY_DECIMALS), (" Y", ends[:, 1], XY_DECIMALS), (" E", e, E_DECIMALS)]
@@ -455,8 +484,14 @@ def prepare_bodies(plan: LayerPlan, settings: Settings, grading=None) -> None:
     elif len(packed.roles):
         grade = layer_grade(grading, plan, settings, packed.roles.astype(np.int64))
         packed.data = format_packed(packed.points, np.diff(packed.offsets).astype(np.int64), packed.closed,
-                                    packed.widths, packed.heights, area, grade)
+                                    packed.widths, packed.heights, area, grade, arc_tolerance(settings))
         packed.rows = np.arange(len(packed.roles), dtype=np.int32)
+
+
+def arc_tolerance(settings: Settings) -> float:
+    """How far fitted arcs may leave the moves they replace, mm: ``gcode_resolution`` with
+    ``arc_fitting = emit_center``, else 0 (no arcs)."""
+    return settings.gcode_resolution if settings.arc_fitting == "emit_center" else 0.0
 
 
 def fill_placeholders(text: str, values: dict[str, str], what: str) -> str:
@@ -575,6 +610,9 @@ class GcodeWriter:
         grading: the design's instantaneous attributes
             (:class:`~fgslice.machine.grading.SegmentGrading`) for the paths it formats
             itself; None for none.
+        time_model: run the time model on the text written; False when another process
+            reads the file anyway (the verifier) and plans its moves there, handing the
+            time to :meth:`finish`.
     """
 
     def __init__(
@@ -589,6 +627,7 @@ class GcodeWriter:
         materials: Sequence[Material] = (),
         now: datetime | None = None,
         grading=None,
+        time_model: bool = True,
     ) -> None:
         self.out = out
         self.grading = grading
@@ -616,7 +655,9 @@ class GcodeWriter:
         self._e_written = 0.0
         self._stats_layers = 0
         self._travel_mm = 0.0
-        self._timing = TimeModel(settings)
+        self._timing = TimeModel(settings) if time_model else None
+        self._change_s = 0.0  # the dialect's fixed time of the state changes, s
+        self._ended = False
         self._state_changes = 0
         self._tool_changes = 0  # changes of the material color (of the tool on a toolchanger)
         self._retractions = 0
@@ -661,7 +702,8 @@ class GcodeWriter:
         lines += ["", fill_placeholders(s.start_gcode, self._temperature_values(), "start_gcode")]
         lines += self.dialect.start_commands() + ["M83", "M107", ""]
         body = "\n".join(lines)
-        self._timing.feed(body)
+        if self._timing:
+            self._timing.feed(body)
         self.out.write(text + body)
 
     def _temperature_values(self) -> dict[str, str]:
@@ -702,7 +744,8 @@ class GcodeWriter:
                 self._pos = None
         self._stats_layers += 1
         text = "".join(parts)
-        self._timing.feed(text)
+        if self._timing:
+            self._timing.feed(text)
         self.out.write(text)
 
     def _state_changes_before(self, layer: "_LayerPaths") -> tuple[np.ndarray, list[str], np.ndarray]:
@@ -739,7 +782,7 @@ class GcodeWriter:
         if previous is None or material_colors(self.palette, (previous,)) != material_colors(self.palette, (color,)):
             self._tool_changes += 1
         self._colors_used.add(color)
-        self._timing.add(self.dialect.change_time(previous, color))
+        self._change_s += self.dialect.change_time(previous, color)
         text = self._state_texts.get((previous, color))
         if text is None:
             text = self._state_texts[previous, color] = "\n".join(self.dialect.change_commands(previous, color)) + "\n"
@@ -847,7 +890,7 @@ class GcodeWriter:
         if not n:
             return []
         rows = rows[printed]
-        widths = layer.widths[printed]
+        widths = np.round(layer.widths[printed], 4)  # as ;WIDTH: writes them: a repeated line is left out
         starts, last = bodies.start[rows], bodies.end[rows]
 
         codes = layer.codes[printed]
@@ -978,18 +1021,37 @@ class GcodeWriter:
         return _assemble(blocks, n, lengths)
 
     # -- footer ---------------------------------------------------------------------
-    def finish(self) -> dict:
-        """Write the end G-code and the footer; return the statistics (see docs/gcode.md)."""
+    def write_end(self) -> None:
+        """Write the end G-code (once; :meth:`finish` writes it if this was not called):
+        the last of the file the machine executes, what follows is comments."""
+        if self._ended:
+            return
+        self._ended = True
+        end = fill_placeholders(self.settings.end_gcode, self._temperature_values(), "end_gcode")
+        if self._timing:
+            self._timing.feed(end)
+        self.out.write("\n" + end)
+
+    def finish(self, planned_s: float | None = None) -> dict:
+        """Write the end G-code and the footer; return the statistics (see docs/gcode.md).
+
+        Args:
+            planned_s: seconds of the file's moves and dwells up to the end G-code as a
+                :class:`~fgslice.machine.timing.TimeModel` read elsewhere plans them
+                (with ``time_model=False``); None: this writer's own model's.
+        """
         s = self.settings
         filament_mm = self._e_written
         extruded = filament_mm * self.filament_area
         grams_per_mm3 = s.filament_density / 1000.0
-        end = fill_placeholders(s.end_gcode, self._temperature_values(), "end_gcode")
-        self._timing.feed(end)
-        time_s = self._timing.finish()
+        self.write_end()
+        if planned_s is None:
+            if self._timing is None:
+                raise ValueError("a writer without its time model needs the planned time")
+            planned_s = self._timing.finish()
+        time_s = planned_s + self._change_s
         footer = [
             "",
-            end,
             "",
             f"; filament used [mm] = {filament_mm:.2f}",
             f"; filament used [cm3] = {extruded / 1000.0:.2f}",

@@ -3,7 +3,8 @@
 :func:`read_gcode` returns a :class:`GcodeProgram`: one row per move in numpy arrays
 (start and end position in mm, filament length E in mm, feed rate in mm/min, line number,
 layer, role, process state, bead width) plus the events ``verify`` needs (temperature
-set points, tool selects, flow and mix commands, fan and PWM outputs).
+set points, tool selects, flow and mix commands, fan and PWM outputs, the commands at
+which the head may stop with a ``G4``'s dwell).
 :func:`iter_gcode` yields the same program in chunks of whole lines (global line
 numbers, state carried from chunk to chunk) so that long files are processed in
 bounded memory; :func:`read_gcode` joins its chunks.
@@ -40,6 +41,15 @@ MIX_LETTERS = "ABCDHI"
 TEXT_COMMANDS = frozenset({"M16", "M23", "M28", "M30", "M32", "M33", "M117", "M118", "M928",
                            *(f"M{n}" for n in range(810, 820))})
 """Marlin commands whose argument is text (a message, a file name, a macro), not words."""
+
+WAIT_COMMANDS = frozenset({"G4", "M400", "G28", "M109", "M190", "M600", "G92", "ACTIVATE_EXTRUDER",
+                           "SYNC_EXTRUDER_MOTION", "SET_EXTRUDER_ROTATION_DISTANCE"})
+"""Commands at which a firmware may stop the head (``T<n>`` too); :mod:`.timing` decides
+which of them stop it on which firmware."""
+
+ARC_SEGMENT_MM = 1.0
+"""Length of the straight pieces a firmware cuts arcs into, mm (Marlin's
+``MM_PER_ARC_SEGMENT``, Klipper's ``[gcode_arcs] resolution``)."""
 
 _CODE = re.compile(r"[GMT]\d+(\.\d+)?$")
 """A command word the reader interprets the words of; others (Klipper's and hosts'
@@ -124,7 +134,11 @@ class GcodeProgram:
     length (arc length for G2/G3); ``line`` (M,) 1-based line numbers; ``layer`` (M,)
     0-based layer (-1 before the first layer change); ``role`` (M,) index into
     ``roles`` (-1 if none); ``state`` (M,) index into ``states``; ``width`` (M,) the last
-    ``;WIDTH:`` (NaN if none).
+    ``;WIDTH:`` (NaN if none). ``waits``: ``(line, command, dwell s)`` of each command at
+    which the head may stop (:data:`WAIT_COMMANDS`; ``T<n>`` as ``T``; the dwell of a ``G4``).
+    ``arc_centre`` (M, 2): the centre of each ``G2``/``G3`` move (NaN for straight moves);
+    ``arc_turn`` (M,): -1 for ``G2`` (clockwise), 1 for ``G3``, 0 for straight moves; readers
+    of the path's shape take :meth:`split_arcs`.
     """
 
     start: np.ndarray
@@ -148,8 +162,51 @@ class GcodeProgram:
     outputs: list[ValueEvent] = field(default_factory=list)
     faults: list[Fault] = field(default_factory=list)
     arcs: list[ArcExtent] = field(default_factory=list)
+    waits: list[tuple[int, str, float]] = field(default_factory=list)
     unknown_lines: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     line_count: int = 0
+    arc_centre: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    arc_turn: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int8))
+
+    def split_arcs(self, segment_mm: float = ARC_SEGMENT_MM) -> "GcodeProgram":
+        """This program with every ``G2``/``G3`` arc cut into the straight moves a firmware
+        cuts it into (equal pieces of at most ``segment_mm`` along the arc; Z and E shared
+        out by length); every other column repeated for the pieces. Itself without arcs."""
+        arcs = np.flatnonzero(self.arc_turn)
+        if not len(arcs):
+            return self
+        centre, start, end = self.arc_centre[arcs], self.start[arcs], self.end[arcs]
+        radius = np.hypot(*(start[:, :2] - centre).T)
+        usable = np.isfinite(radius) & (radius > 0) & np.isfinite(self.length[arcs])
+        counts = np.ones(len(self.e), dtype=np.int64)
+        counts[arcs] = np.where(usable, np.maximum(1, np.ceil(np.nan_to_num(self.length[arcs]) / segment_mm)), 1)
+        index = np.repeat(np.arange(len(self.e)), counts)
+        piece = np.arange(len(index)) - np.repeat(np.cumsum(counts) - counts, counts)
+        share = (piece + 1) / counts[index]
+        new_end = self.end[index]
+        inner = np.flatnonzero(np.repeat(np.isin(np.arange(len(self.e)), arcs[usable]), counts) & (share < 1))
+        if len(inner):
+            which = np.searchsorted(arcs, index[inner])
+            c, r = centre[which], radius[which]
+            a0 = np.arctan2(start[which, 1] - c[:, 1], start[which, 0] - c[:, 0])
+            angle = a0 + self.arc_turn[index[inner]] * share[inner] * self.length[index[inner]] / r
+            new_end[inner, 0] = c[:, 0] + r * np.cos(angle)
+            new_end[inner, 1] = c[:, 1] + r * np.sin(angle)
+            new_end[inner, 2] = start[which, 2] + share[inner] * (end[which, 2] - start[which, 2])
+        new_start = np.roll(new_end, 1, axis=0)
+        firsts = piece == 0
+        new_start[firsts] = self.start[index[firsts]]
+        was_arc = self.arc_turn[index] != 0
+        length = np.where(was_arc, np.hypot(*(new_end[:, :2] - new_start[:, :2]).T), self.length[index])
+        return GcodeProgram(
+            start=new_start, end=new_end, e=self.e[index] / counts[index], feed=self.feed[index], length=length,
+            line=self.line[index], layer=self.layer[index], role=self.role[index], state=self.state[index],
+            width=self.width[index], roles=self.roles, states=self.states, layer_z=self.layer_z,
+            temperatures=self.temperatures, tools=self.tools, flows=self.flows, mixes=self.mixes, fans=self.fans,
+            outputs=self.outputs, faults=self.faults, arcs=self.arcs, waits=self.waits,
+            unknown_lines=self.unknown_lines, line_count=self.line_count,
+            arc_centre=np.full((len(index), 2), np.nan), arc_turn=np.zeros(len(index), dtype=np.int8),
+        )
 
     def flow_of_moves(self) -> np.ndarray:
         """(M,) M221 flow (percent) each move was printed with."""
@@ -293,6 +350,24 @@ def _arc_lengths(start: np.ndarray, end: np.ndarray, i: np.ndarray, j: np.ndarra
     return np.where(np.isnan(r), by_center, np.where(rr > 0, by_radius, chord))
 
 
+def _arc_centres(start: np.ndarray, end: np.ndarray, i: np.ndarray, j: np.ndarray, r: np.ndarray,
+                 clockwise: np.ndarray) -> np.ndarray:
+    """``(n, 2)`` centres of G2 (clockwise) / G3 arcs given by centre offsets I J or radius
+    R (negative: the longer arc), mm (an R arc whose chord is longer than its diameter:
+    the chord's middle)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        dx, dy = end[:, 0] - start[:, 0], end[:, 1] - start[:, 1]
+        chord = np.hypot(dx, dy)
+        rise = np.sqrt(np.maximum(np.abs(r)**2 - chord**2 / 4, 0.0))
+        side = np.where(clockwise, -1.0, 1.0) * np.where(r < 0, -1.0, 1.0)  # centre left of the chord: +1
+        by_radius = ~np.isnan(r)
+        cx = np.where(by_radius, (start[:, 0] + end[:, 0]) / 2 - side * rise * dy / chord,
+                      start[:, 0] + np.nan_to_num(i))
+        cy = np.where(by_radius, (start[:, 1] + end[:, 1]) / 2 + side * rise * dx / chord,
+                      start[:, 1] + np.nan_to_num(j))
+    return np.column_stack([cx, cy])
+
+
 def _arc_extents(start: np.ndarray, end: np.ndarray, i: np.ndarray, j: np.ndarray, r: np.ndarray,
                  clockwise: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """XY boxes ``(lo, hi)`` ``(n, 2)`` swept by G2 (clockwise) / G3 arcs given by centre
@@ -300,16 +375,9 @@ def _arc_extents(start: np.ndarray, end: np.ndarray, i: np.ndarray, j: np.ndarra
     points at 0, 90, 180 and 270 degrees that lie on the arc. I J arcs whose ends meet are
     full circles; an R arc whose chord is longer than its diameter is the chord."""
     with np.errstate(invalid="ignore", divide="ignore"):
-        dx, dy = end[:, 0] - start[:, 0], end[:, 1] - start[:, 1]
-        chord = np.hypot(dx, dy)
         rr = np.abs(r)
-        rise = np.sqrt(np.maximum(rr**2 - chord**2 / 4, 0.0))
-        side = np.where(clockwise, -1.0, 1.0) * np.where(r < 0, -1.0, 1.0)  # centre left of the chord: +1
         by_radius = ~np.isnan(r)
-        cx = np.where(by_radius, (start[:, 0] + end[:, 0]) / 2 - side * rise * dy / chord,
-                      start[:, 0] + np.nan_to_num(i))
-        cy = np.where(by_radius, (start[:, 1] + end[:, 1]) / 2 + side * rise * dx / chord,
-                      start[:, 1] + np.nan_to_num(j))
+        cx, cy = _arc_centres(start, end, i, j, r, clockwise).T
         radius = np.hypot(start[:, 0] - cx, start[:, 1] - cy)
         a0 = np.arctan2(start[:, 1] - cy, start[:, 0] - cx)
         a1 = np.arctan2(end[:, 1] - cy, end[:, 0] - cx)
@@ -361,6 +429,7 @@ class _Events:
         self.mixes: list[ValueEvent] = []
         self.fans: list[ValueEvent] = []
         self.outputs: list[ValueEvent] = []
+        self.waits: list[tuple[int, str, float]] = []
         self.positional: list[tuple[int, str, dict[str, float], set[str]]] = []
         self.lines: list[int] = []
         self.after: list[tuple[int, int, int, float]] = [(self.layer, self.role, self.state, self.width)]
@@ -426,8 +495,12 @@ class _Events:
         cmd = words[0].upper()
         if cmd in TEXT_COMMANDS or not _CODE.match(cmd):  # a message, a file name, a host macro, NAME KEY=VALUE
             self.unknown.append(num)
+            if cmd in WAIT_COMMANDS:
+                self.waits.append((num, cmd, 0.0))
             return
         p = self._params(words, num)
+        if cmd in WAIT_COMMANDS or (cmd[0] == "T" and cmd[1:].isdecimal()):
+            self.waits.append((num, "T" if cmd[0] == "T" else cmd, _dwell(p) if cmd == "G4" else 0.0))
         if cmd[0] == "T" and cmd[1:].isdecimal():
             self.tool = int(cmd[1:])
             self.tools.append(ValueEvent(num, "T", {"T": float(self.tool)}))
@@ -483,6 +556,14 @@ class _Events:
         if now != self.after[-1]:
             self.lines.append(num)
             self.after.append(now)
+
+
+def _dwell(params: dict[str, float]) -> float:
+    """Seconds a ``G4`` waits: its first positive ``P`` (ms) or ``S`` (s); 0 for none."""
+    for key, value in params.items():
+        if key in ("P", "S") and value > 0:
+            return value / 1000.0 if key == "P" else value
+    return 0.0
 
 
 def _eight_digits(v: np.ndarray) -> np.ndarray:
@@ -917,7 +998,12 @@ class _Reader:
         length = np.hypot(end[:, 0] - start[:, 0], end[:, 1] - start[:, 1])
         arcs = code >= 2
         arc_extents = []
+        arc_centre = np.full((n_rows, 2), np.nan)
+        arc_turn = np.zeros(n_rows, dtype=np.int8)
         if arcs.any():
+            arc_centre[arcs] = _arc_centres(start[arcs], end[arcs], axis["I"][arcs], axis["J"][arcs], axis["R"][arcs],
+                                            code[arcs] == 2)
+            arc_turn[arcs] = np.where(code[arcs] == 2, -1, 1)
             length[arcs] = _arc_lengths(start[arcs], end[arcs], axis["I"][arcs], axis["J"][arcs], axis["R"][arcs],
                                         code[arcs] == 2)
             lo, hi = _arc_extents(start[arcs], end[arcs], axis["I"][arcs], axis["J"][arcs], axis["R"][arcs],
@@ -951,8 +1037,11 @@ class _Reader:
             outputs=events.outputs,
             faults=sorted(faults, key=lambda f: f.line),
             arcs=arc_extents,
+            waits=events.waits,
             unknown_lines=np.array(events.unknown, dtype=np.int64),
             line_count=self.line_count,
+            arc_centre=arc_centre[moved],
+            arc_turn=arc_turn[moved],
         )
 
 
@@ -1008,8 +1097,9 @@ def iter_gcode_blocks(blocks: Iterable[bytes], *, chunk_lines: int = CHUNK_LINES
         )
 
 
-_ARRAY_FIELDS = ("start", "end", "e", "feed", "length", "line", "layer", "role", "state", "width", "unknown_lines")
-_EVENT_FIELDS = ("temperatures", "tools", "flows", "mixes", "fans", "outputs", "faults", "arcs")
+_ARRAY_FIELDS = ("start", "end", "e", "feed", "length", "line", "layer", "role", "state", "width", "unknown_lines",
+                 "arc_centre", "arc_turn")
+_EVENT_FIELDS = ("temperatures", "tools", "flows", "mixes", "fans", "outputs", "faults", "arcs", "waits")
 
 
 def read_gcode(path_or_text: str | os.PathLike | bytes, *, chunk_lines: int = CHUNK_LINES) -> GcodeProgram:

@@ -56,15 +56,12 @@ MARLIN_E_JERK = 5.0
 #: Speed of moves before any ``F`` (Klipper's and Marlin's 25 mm/s), mm/s.
 DEFAULT_SPEED = 25.0
 #: Moves kept before planning them with a stop at the end (bounds memory; a stop is
-#: planned at least every so many moves, costing a fraction of a second per stop).
+#: planned every so many moves after the last real one, costing a fraction of a second
+#: per stop).
 MAX_PENDING = 1 << 18
 
 _WAITS = {"M400", "G28", "M109", "M190", "M600", "G4"}
 _KLIPPER_WAITS = {"G92", "ACTIVATE_EXTRUDER", "SYNC_EXTRUDER_MOTION", "SET_EXTRUDER_ROTATION_DISTANCE"}
-#: What a line that may make the head wait starts with (tool changes ``T<n>`` included).
-_PREFIXES = (b"G4", b"M400", b"G28", b"M109", b"M190", b"M600", b"G92", b"T", b"ACTIVATE_EXTRUDER",
-             b"SYNC_EXTRUDER_MOTION", b"SET_EXTRUDER_ROTATION_DISTANCE")
-_COMMAND = re.compile(rb"[ \t]*([A-Za-z_]+[0-9]*)(?=[ \t;\r\n]|$)([^\n]*)")
 
 
 @dataclass(frozen=True)
@@ -276,7 +273,7 @@ class TimeModel:
         self._stream = GcodeStream()
         self._pending: list[tuple[np.ndarray, ...]] = []
         self._pending_moves = 0
-        self._waits = _WAITS | (_KLIPPER_WAITS if self.limits.planner == "klipper" else set())
+        self._waits = _WAITS | {"T"} | (_KLIPPER_WAITS if self.limits.planner == "klipper" else set())
         self.motion_s = 0.0
         self.fixed_s = 0.0
 
@@ -291,41 +288,23 @@ class TimeModel:
 
     def feed(self, text: str) -> None:
         """Read the next piece of G-code (whole lines)."""
-        if not text:
-            return
-        first = self._stream.line_count + 1
-        data = text.encode("utf-8")
-        program = self._stream.read(data)
-        wait_lines = self._waits_in(data, first)
-        self._queue(program, wait_lines)
+        if text:
+            self.read(self._stream.read(text))
+
+    def read(self, program: GcodeProgram) -> None:
+        """Take the next chunk of a program read elsewhere (:func:`~.gcode_reader.iter_gcode`'s
+        chunks, say, in order): the same total as :meth:`feed` of its text. Arcs are
+        planned as the straight pieces the firmware cuts them into."""
+        program = program.split_arcs()
+        waits = [(line, dwell) for line, command, dwell in program.waits if command in self._waits]
+        for _, dwell in waits:
+            self.fixed_s += dwell
+        self._queue(program, np.array([line for line, _ in waits], dtype=np.int64))
 
     def finish(self) -> float:
         """Plan the moves still pending (ending at rest); the total time, s."""
         self._plan_pending()
         return self.total_s
-
-    def _waits_in(self, data: bytes, first: int) -> np.ndarray:
-        """Line numbers of the commands in ``data`` (whose first line is ``first``) at which
-        the head stops; dwells are added to the time."""
-        text = b"\n" + data
-        starts = sorted({i + 1 for prefix in _PREFIXES for i in _occurrences(text, b"\n" + prefix)})
-        lines = []
-        position, line = 0, first - 1
-        for start in starts:
-            match = _COMMAND.match(text, start)
-            if match is None:
-                continue
-            command = match.group(1).upper().decode()
-            if command[:1] == "T" and command[1:].isdigit():
-                command = "T"
-            if command != "T" and command not in self._waits:
-                continue
-            line += text.count(b"\n", position, start)
-            position = start
-            lines.append(line)
-            if command == "G4":
-                self.fixed_s += _dwell(match.group(2))
-        return np.array(lines, dtype=np.int64)
 
     def _queue(self, program: GcodeProgram, wait_lines: np.ndarray) -> None:
         """Queue ``program``'s moves; plan everything before its last wait."""
@@ -348,45 +327,33 @@ class TimeModel:
             self._plan_pending()
             columns = tuple(c[cut:] for c in columns)
         self._push(columns)
-        if self._pending_moves > MAX_PENDING:
-            self._plan_pending()
 
     def _push(self, columns: tuple[np.ndarray, ...]) -> None:
-        """Keep moves (start, end, e, speed, stop-before columns) for planning."""
-        if len(columns[2]):
-            self._pending.append(columns)
-            self._pending_moves += len(columns[2])
+        """Keep moves (start, end, e, speed, stop-before columns) for planning; plan each
+        :data:`MAX_PENDING` moves after the last stop as if the head stopped there, so
+        the total does not depend on how the program was cut into pieces."""
+        if not len(columns[2]):
+            return
+        self._pending.append(columns)
+        self._pending_moves += len(columns[2])
+        while self._pending_moves >= MAX_PENDING:
+            joined = tuple(np.concatenate(c) for c in zip(*self._pending))
+            self._pending = [tuple(c[MAX_PENDING:] for c in joined)] if len(joined[2]) > MAX_PENDING else []
+            self._pending_moves -= MAX_PENDING
+            self._plan(tuple(c[:MAX_PENDING] for c in joined))
 
     def _plan_pending(self) -> None:
         """Plan the kept moves from rest to rest and add their time."""
         if not self._pending:
             return
-        start, end, e, feed, stop = (np.concatenate(c) for c in zip(*self._pending))
+        columns = tuple(np.concatenate(c) for c in zip(*self._pending))
         self._pending.clear()
         self._pending_moves = 0
-        self.motion_s += float(move_times(start, end, e, feed, self.limits, stop).sum())
+        self._plan(columns)
 
-
-def _occurrences(text: bytes, word: bytes) -> list[int]:
-    """Offsets of every ``word`` in ``text``."""
-    found, at = [], text.find(word)
-    while at >= 0:
-        found.append(at)
-        at = text.find(word, at + 1)
-    return found
-
-
-def _dwell(words: bytes) -> float:
-    """Seconds of a ``G4``'s parameters (``P`` ms or ``S`` s); 0 for none or nonsense."""
-    for word in words.split(b";")[0].split():
-        letter, value = word[:1].upper(), word[1:]
-        try:
-            seconds = float(value) / (1000.0 if letter == b"P" else 1.0)
-        except ValueError:
-            continue
-        if letter in (b"P", b"S") and math.isfinite(seconds) and seconds > 0:
-            return seconds
-    return 0.0
+    def _plan(self, columns: tuple[np.ndarray, ...]) -> None:
+        """Plan moves (start, end, e, speed, stop-before columns) from rest to rest; add their time."""
+        self.motion_s += float(move_times(*columns[:4], self.limits, columns[4]).sum())
 
 
 def estimate_time(text: str, settings: Settings) -> float:

@@ -274,9 +274,11 @@ def verify_gcode(program_or_path: GcodeProgram | str | os.PathLike, settings: Se
 
 
 def verify_gcode_blocks(blocks: Iterable[bytes], settings: Settings, *, name: str | None = None,
-                        chunk_lines: int = CHUNK_LINES) -> list[Fault]:
+                        chunk_lines: int = CHUNK_LINES,
+                        also: Callable[[GcodeProgram], None] | None = None) -> list[Fault]:
     """:func:`verify_gcode` of G-code arriving as byte blocks split anywhere (see
-    :func:`follow_file`); ``name`` is the file named in errors.
+    :func:`follow_file`); ``name`` is the file named in errors; ``also`` is called with
+    every chunk read, in order (a time model planning the same program, say).
 
     Raises:
         GcodeError: the text is not readable G-code.
@@ -284,6 +286,8 @@ def verify_gcode_blocks(blocks: Iterable[bytes], settings: Settings, *, name: st
     verifier = _Verifier(settings)
     for chunk in iter_gcode_blocks(blocks, chunk_lines=chunk_lines, name=name):
         verifier.add(chunk)
+        if also:
+            also(chunk)
     return verifier.faults()
 
 

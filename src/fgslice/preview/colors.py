@@ -112,10 +112,10 @@ def load_printout(source: str | os.PathLike | bytes | GcodeProgram | Printout, i
             return Printout(source.program, source.info, source.name, materials or source.materials)
         program, name, header = source.program, source.name, info
     elif isinstance(source, GcodeProgram):
-        program, name, header = source, None, GcodeHeader()
+        program, name, header = source.split_arcs(), None, GcodeHeader()
     else:
         name, header = _read_source_header(source)
-        program = read_gcode(source)
+        program = read_gcode(source).split_arcs()  # arcs as the straight pieces the firmware prints
     info = info or header
     return Printout(program, info, name, materials or header_materials(info, name, library))
 

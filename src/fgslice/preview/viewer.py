@@ -245,7 +245,7 @@ def build_viewer_data(program: GcodeProgram, header: GcodeHeader, footer: dict[s
 def load_viewer_data(gcode_path: str | os.PathLike) -> ViewerData:
     """Read a G-code file and build the page's data (GcodeError if it is not G-code or a
     header value fgslice interprets is malformed)."""
-    program = read_gcode(Path(gcode_path))
+    program = read_gcode(Path(gcode_path)).split_arcs()  # arcs as the straight pieces the firmware prints
     return build_viewer_data(program, read_header(gcode_path), read_footer(gcode_path), Path(gcode_path).name)
 
 
