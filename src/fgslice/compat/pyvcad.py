@@ -774,3 +774,32 @@ class PolygonExtrude(_Leaf):
 
 
 __all__ += ["PolygonExtrude"]
+
+
+class Offset(_Unary):
+    """``Offset(offset[, child])``: the child's signed distance shifted by ``offset`` mm
+    (> 0 grows the part, < 0 shrinks it; :mod:`fgslice.design.offset`)."""
+
+    def __init__(self, *args) -> None:
+        super().__init__("Offset", args, {0: "", 1: "offset"})
+        self._distance = _number("Offset", "offset", self._args[0]) if self._args else 0.0
+
+    def _apply(self, child: nodes.Node) -> nodes.Node:
+        return api.offset(self._distance, child)
+
+
+class Shell(_Unary):
+    """``Shell(thickness[, child])``: the child hollowed to a closed wall ``thickness`` mm
+    (> 0) thick inside its surface (:mod:`fgslice.design.offset`)."""
+
+    def __init__(self, *args) -> None:
+        super().__init__("Shell", args, {1: "thickness"})
+        self._thickness = _number("Shell", "thickness", self._args[0])
+        if not self._thickness > 0:
+            raise DesignError(f"Shell: thickness must be positive, got {self._thickness:g}", hint=_DOCS)
+
+    def _apply(self, child: nodes.Node) -> nodes.Node:
+        return api.shell(self._thickness, child)
+
+
+__all__ += ["Offset", "Shell"]
