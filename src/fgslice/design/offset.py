@@ -104,9 +104,7 @@ class Shifted(nodes.Node):
         child = self.children[0]
         if isinstance(child, (nodes.Sphere, nodes.Strut)) and child.r + self.d <= 0:
             return np.full(3, np.inf), np.full(3, -np.inf)
-        if self.d > 0 or self.extent is not None:
-            return lo - self.d, hi + self.d
-        return lo, hi  # shrunk within the child
+        return lo - self.d, hi + self.d  # shrunk: a distance <= d inside lies |d| within the box
 
     def _sections(self, zs, spacing):
         if self.extent is None:
