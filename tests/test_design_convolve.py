@@ -14,6 +14,9 @@ from fgslice.design.attributes import attribute_fields
 from fgslice.design.blend import LATTICE_POINTS
 from fgslice.design.convolve import box_stencil, kernel_stencil
 from fgslice.errors import DesignError
+from fgslice.machine.gcode_reader import read_gcode
+from fgslice.pipeline import slice_to_gcode
+from fgslice.settings import load_settings
 
 HEADER = "import pyvcad as pv\nimport pyvcad_rendering as viz\nmaterials = pv.default_materials\n"
 BLOCKS = """a = pv.RectPrism(pv.Vec3(-20, 0, 0), pv.Vec3(40, 20, 20), materials.id("red"))
@@ -135,3 +138,23 @@ def test_bad_arguments_name_the_class_and_argument(tmp_path, body, message):
     with pytest.raises(DesignError, match=message) as caught:
         load_script(path)
     assert caught.value.line == 4
+
+
+def test_a_blended_temperature_step_is_commanded_along_the_bar(tmp_path):
+    design = _load(tmp_path, """bar = pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(60, 12, 4))
+    bar.set_attribute(pv.DefaultAttributes.TEMPERATURE, pv.FloatAttribute("x > 0 ? 250 : 220"))
+    root = pv.Blend(bar, [pv.DefaultAttributes.TEMPERATURE], [6.0, 0.0, 0.0])""")
+    out = tmp_path / "bar.gcode"
+    settings = load_settings("foam-lwpla", {})
+    slice_to_gcode(design, settings, out, jobs=1)
+    program = read_gcode(out)
+    printed = (program.e > 0) & (program.length > 0) & (program.layer > 0)
+    start, end = program.start[printed, 0], program.end[printed, 0]
+    centre = (min(start.min(), end.min()) + max(start.max(), end.max())) / 2
+    lo, hi = np.minimum(start, end) - centre, np.maximum(start, end) - centre
+    temperature = np.array([program.states[s].temperature for s in program.state[printed]])
+    assert set(temperature[hi < -6.5]) == {220} and set(temperature[lo > 6.5]) == {250}
+    ramp = (lo > -6) & (hi < 6)
+    field = 220 + 30 * np.clip(0.5 + (lo + hi)[ramp] / 2 / 12, 0, 1)  # the box mean over +-6 mm
+    assert len(np.unique(temperature[ramp])) >= 5
+    assert np.abs(temperature[ramp] - field).max() <= settings.temperature_step + 0.5
