@@ -10,6 +10,7 @@ import textwrap
 import numpy as np
 import pytest
 import shapely
+import trimesh
 
 from fgslice.compat.script import load_script
 from fgslice.design import api, nodes
@@ -162,3 +163,24 @@ def test_api_refuses_bad_distances():
         api.offset(1.0)
     assert isinstance(api.offset(0.0, api.sphere(1)).section(0.0, 0.1), shapely.Polygon | shapely.MultiPolygon)
     assert nodes.NodeDesign(api.shell(1, api.sphere(3))).materials[0].name == "default"
+
+
+def test_a_mesh_grows_shrinks_and_hollows_with_exact_sections(tmp_path):
+    trimesh.creation.box((20, 10, 6)).export(tmp_path / "block.stl")
+    block = api.mesh(tmp_path / "block.stl")
+    grown = api.offset(2, block)
+    for z in (0.0, 2.9, 4.2):
+        radius = math.sqrt(4 - max(z - 3.0, 0.0) ** 2)
+        assert grown.section(z, 0.1).area == pytest.approx(_rounded_rectangle(20, 10, radius), rel=1e-3)
+    assert api.offset(-1.5, block).section(1.4, 0.1).area == pytest.approx(17 * 7, rel=1e-9)
+    assert api.offset(-1.5, block).section(1.6, 0.1).is_empty
+    shell = api.shell(1, block)
+    assert shell.section(0.0, 0.1).area == pytest.approx(200 - 18 * 8, rel=1e-9)
+    assert shell.section(2.5, 0.1).area == pytest.approx(200, rel=1e-9)
+    standing = api.offset(1, api.rotate((90, 0, 0), block))  # the mesh tilted: its 20 x 6 face now horizontal
+    assert standing.section(0.0, 0.1).area == pytest.approx(_rounded_rectangle(20, 6, 1), rel=1e-3)
+    rng = np.random.default_rng(9)
+    x, y, z = rng.uniform(-12, 12, 3000), rng.uniform(-7, 7, 3000), np.full(3000, 3.5)
+    section, distance = grown.section(3.5, 0.05), grown.sdf(x, y, z)
+    clear = np.abs(distance) > 0.05
+    np.testing.assert_array_equal(shapely.contains_xy(section, x, y)[clear], distance[clear] < 0)

@@ -14,9 +14,11 @@ a sphere or strut keeps its kind with the radius changed by ``d``; a prism (box,
 cylinder, extrusion, text: a planar region ``S`` between two heights, with an exact
 distance) has at height ``z`` the section ``buffer(S, sqrt(d^2 - t^2))`` when growing
 (``t``: how far ``z`` lies above or below the prism, 0 beside it) and ``buffer(S, d)``
-when shrinking, empty within ``|d|`` of its top and bottom; any other leaf (meshes,
-functions, lattices, smooth booleans, tilted parts) is traced on its shifted distance.
-Arcs are inscribed, vertices within ``spacing / 20`` of the true curve.
+when shrinking, empty within ``|d|`` of its top and bottom; a mesh (also one moved by
+a tilting transform) has its own section with the band of points within ``|d|`` of its
+triangles added or cut away (:func:`triangle_band`); any other leaf (functions,
+lattices, smooth booleans, tilted primitives) is traced on its shifted distance. Arcs
+are inscribed, vertices within ``spacing / 20`` of the true curve.
 """
 
 from __future__ import annotations
@@ -55,7 +57,11 @@ def shifted(node: nodes.Node, d: float) -> nodes.Node:
         return nodes.Strut(node.a, node.b, node.r + d, node.material, node.where) if node.r + d > 0 else Shifted(node, d)
     if isinstance(node, (smooth.SmoothUnion, smooth.SmoothIntersection, smooth.SmoothDifference)):
         return Shifted(node, d)
-    if isinstance(node, nodes.Affine) and node.moved_tree is None:
+    if isinstance(node, nodes.MeshShape):
+        return MeshShifted(node, d)
+    if isinstance(node, nodes.Affine) and node.moved_tree is not None:
+        return shifted(node.moved_tree, d)
+    if isinstance(node, nodes.Affine):
         stretch = float(node._stretch.min())
         return nodes.Affine(node.matrix, node.offset, shifted(node._body, d / stretch), node.where)
     if type(node) is nodes.Union or isinstance(node, nodes.Intersection):
@@ -171,3 +177,61 @@ class Shell(Reshaped):
         super().__init__((child,), where)
         self.thickness = float(thickness)
         self.shape = nodes.Difference([child, shifted(child, -self.thickness)], where)
+
+
+def triangle_band(triangles: np.ndarray, z: float, d: float, spacing: float) -> shapely.Geometry:
+    """The points of the plane at height ``z`` within ``d`` mm (> 0) of any of the
+    ``triangles`` ``(n, 3, 3)``: for each triangle, the section of its plate (the triangle
+    swept ``d`` both ways along its normal: the points whose nearest point of the triangle
+    is inside it) and of the capsules of radius ``d`` around its edges (nearest point on
+    an edge or a corner)."""
+    zs = triangles[..., 2]
+    triangles = triangles[(zs.min(axis=1) <= z + d) & (zs.max(axis=1) >= z - d)]
+    if not len(triangles):
+        return _EMPTY
+    normal = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    length = np.linalg.norm(normal, axis=1)
+    keep = length > 0
+    triangles, normal = triangles[keep], normal[keep] / length[keep, None]
+    shift = d * normal[:, None, :]
+    corners = np.concatenate([triangles - shift, triangles + shift], axis=1)  # (n, 6, 3): the plate's corners
+    pairs = np.array([(0, 1), (1, 2), (2, 0), (3, 4), (4, 5), (5, 3), (0, 3), (1, 4), (2, 5)])
+    a, b = corners[:, pairs[:, 0]], corners[:, pairs[:, 1]]  # (n, 9, 3): the plate's edges
+    dz = b[..., 2] - a[..., 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (z - a[..., 2]) / dz
+    crossing = (dz != 0) & (t >= 0) & (t <= 1)
+    points = a + np.where(crossing, t, 0.0)[..., None] * (b - a)
+    owner, edge = np.nonzero(crossing)
+    if owner.size:
+        _, index = np.unique(owner, return_inverse=True)
+        plates = shapely.convex_hull(shapely.multipoints(points[owner, edge, :2], indices=index))
+    else:
+        plates = []
+    parts = [p for p in plates if p.geom_type == "Polygon"]
+    edges = np.stack([triangles, triangles[:, [1, 2, 0]]], axis=2).reshape(-1, 2, 3)
+    sign = np.sign(edges[:, 0] - edges[:, 1])
+    swap = sign[np.arange(len(sign)), np.argmax(sign != 0, axis=1)] > 0  # each edge once, its lower end first
+    edges[swap] = edges[swap][:, ::-1]
+    edges = np.unique(edges, axis=0)
+    ends = np.unique(edges.reshape(-1, 3), axis=0)
+    rho2 = d * d - (z - ends[:, 2]) ** 2
+    parts.extend(nodes._circle(x, y, math.sqrt(r2), spacing) for (x, y, _), r2 in zip(ends, rho2) if r2 > 0)
+    reach = (edges[..., 2].min(axis=1) - d <= z) & (edges[..., 2].max(axis=1) + d >= z)
+    parts.extend(nodes.Strut(start, end, d)._body_section(z, spacing) for start, end in edges[reach])
+    return shapely.union_all([p for p in parts if not p.is_empty])
+
+
+class MeshShifted(Shifted):
+    """A mesh's distance minus ``d`` mm, its sections exact: the mesh's own section with
+    the band of points within ``|d|`` of its triangles added (growing) or cut away
+    (shrinking), :func:`triangle_band`."""
+
+    def _sections(self, zs, spacing):
+        geometry = self.children[0].geometry
+        triangles = geometry._vertices[geometry._faces]
+        out = []
+        for z, own in zip(zs, geometry.sections(zs)):
+            band = triangle_band(triangles, z, abs(self.d), spacing)
+            out.append(shapely.union(own, band) if self.d > 0 else shapely.difference(own, band))
+        return out
