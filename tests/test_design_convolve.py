@@ -158,3 +158,15 @@ def test_a_blended_temperature_step_is_commanded_along_the_bar(tmp_path):
     field = 220 + 30 * np.clip(0.5 + (lo + hi)[ramp] / 2 / 12, 0, 1)  # the box mean over +-6 mm
     assert len(np.unique(temperature[ramp])) >= 5
     assert np.abs(temperature[ramp] - field).max() <= settings.temperature_step + 0.5
+
+
+def test_blurring_an_attribute_leaves_the_materials_where_they_are(tmp_path):
+    design = _load(tmp_path, """bar = pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(60, 10, 10))
+    bar.set_attribute(pv.DefaultAttributes.VOLUME_FRACTIONS, pv.VolumeFractionsAttribute(
+    [("0.5 + x / 60", materials.id("red")), ("0.5 - x / 60", materials.id("blue"))]))
+    bar.set_attribute(pv.DefaultAttributes.TEMPERATURE, pv.FloatAttribute("200 + x"))
+    root = pv.Translate(10, 0, 0, pv.Blend(bar, [pv.DefaultAttributes.TEMPERATURE], [5.0, 0.0, 0.0]))""")
+    x = np.array([-15.0, 10.0, 30.0])
+    red = design.fractions(x, 0 * x, 0 * x)[:, 0]
+    np.testing.assert_allclose(red, 0.5 + (x - 10) / 60)
+    np.testing.assert_allclose(attribute_fields(design).values("temperature", x, 0 * x, 0 * x), 200 + x - 10)

@@ -87,10 +87,6 @@ class Smoothed(AttributeOperator):
         self.outputs = tuple(names)
         self.fractions = bool(fractions)
 
-    @functools.cached_property
-    def coordinate_free(self) -> bool:
-        return self._body.coordinate_free or not self.fractions
-
     def _blocks(self, n: int):
         block = max(1, nodes.CHUNK // len(self.offsets))
         return [slice(s, min(s + block, n)) for s in range(0, n, block)]
