@@ -789,3 +789,110 @@ class PolygonExtrude(_Leaf):
 
 
 __all__ += ["PolygonExtrude"]
+
+
+class Offset(_Unary):
+    """``Offset(offset[, child])``: the child's signed distance shifted by ``offset`` mm
+    (> 0 grows the part, < 0 shrinks it; :mod:`fgslice.design.offset`)."""
+
+    def __init__(self, *args) -> None:
+        super().__init__("Offset", args, {0: "", 1: "offset"})
+        self._distance = _number("Offset", "offset", self._args[0]) if self._args else 0.0
+
+    def _apply(self, child: nodes.Node) -> nodes.Node:
+        return api.offset(self._distance, child)
+
+
+class Shell(_Unary):
+    """``Shell(thickness[, child])``: the child hollowed to a closed wall ``thickness`` mm
+    (> 0) thick inside its surface (:mod:`fgslice.design.offset`)."""
+
+    def __init__(self, *args) -> None:
+        super().__init__("Shell", args, {1: "thickness"})
+        self._thickness = _number("Shell", "thickness", self._args[0])
+        if not self._thickness > 0:
+            raise DesignError(f"Shell: thickness must be positive, got {self._thickness:g}", hint=_DOCS)
+
+    def _apply(self, child: nodes.Node) -> nodes.Node:
+        return api.shell(self._thickness, child)
+
+
+__all__ += ["Offset", "Shell"]
+
+
+class Sum(Node):
+    """``Sum([iso_value][, [children]])`` + ``add_child``: the children's signed distances
+    added; inside where the sum is at most ``iso_value`` mm (:mod:`fgslice.design.sum`)."""
+
+    def __init__(self, *args) -> None:
+        super().__init__()
+        _overload("Sum", args, {0: "", 1: "iso_value", 2: "iso_value, children"})
+        self._iso = _number("Sum", "iso_value", args[0]) if args else 0.0
+        children = args[1] if len(args) == 2 else []
+        if isinstance(children, (str, Node)) or not isinstance(children, Sequence):
+            raise DesignError(f"Sum: children must be a list of pyvcad nodes, got {children!r}", hint=_DOCS)
+        self._children = []
+        for child in children:
+            self.add_child(child)
+
+    def add_child(self, child) -> None:
+        """Append ``child``."""
+        self._children.append(_child("Sum", child))
+
+    def _build(self, convert) -> nodes.Node:
+        from fgslice.design.sum import Sum as SumNode
+
+        if not self._children:
+            raise DesignError("Sum has no children", hint="add them with add_child(node)")
+        return SumNode(self._iso, [convert(c) for c in self._children])
+
+
+class Blend(_Unary):
+    """OpenVCAD 2: ``Blend(radius[, child])``: the child's materials averaged over the box
+    ``radius`` mm each side of every point (``blend(2 radius) { child }``); the geometry
+    is the child's. OpenVCAD 3's ``Blend(child, attributes, physical_radius, ...)`` is
+    :class:`fgslice.compat.pyvcad_v3.AttributeBlend`."""
+
+    def __new__(cls, *args, **kwargs):
+        if (args and isinstance(args[0], Node)) or kwargs:
+            from fgslice.compat import pyvcad_v3
+
+            return pyvcad_v3.AttributeBlend(*args, **kwargs)
+        return super().__new__(cls)
+
+    def __init__(self, *args) -> None:
+        super().__init__("Blend", args, {1: "radius"})
+        self._radius = _number("Blend", "radius", self._args[0])
+        if not self._radius > 0:
+            raise DesignError(f"Blend: radius must be positive, got {self._radius:g}", hint=_DOCS)
+
+    def _apply(self, child: nodes.Node) -> nodes.Node:
+        return api.blend(2 * self._radius, child)
+
+
+class Convolution(Node):
+    """OpenVCAD 2's ``Convolution(kernel[, child])``: refused. Its integer kernel counts
+    voxels of OpenVCAD's sampler, a grid fgslice does not have (it samples the design
+    exactly), so the kernel has no size here; ``Blend(radius, child)`` gives the
+    blending kernel a size in mm. ``BlendKernel`` and ``PassKernel`` build the kernels."""
+
+    def __init__(self, *args) -> None:
+        super().__init__()
+        raise DesignError("Convolution is not supported by fgslice: its kernel is counted in voxels of OpenVCAD's "
+                          "sampler, which fgslice does not use, so the kernel has no size in mm",
+                          hint="blend materials with pv.Blend(radius_mm, child)")
+
+    @staticmethod
+    def BlendKernel(x: int, y: int, z: int) -> list:
+        """A kernel of ``x`` by ``y`` by ``z`` ones."""
+        return [[[1] * int(z) for _ in range(int(y))] for _ in range(int(x))]
+
+    @staticmethod
+    def PassKernel(x: int, y: int, z: int) -> list:
+        """A kernel of zeros with a one at its centre."""
+        kernel = [[[0] * int(z) for _ in range(int(y))] for _ in range(int(x))]
+        kernel[int(x) // 2][int(y) // 2][int(z) // 2] = 1
+        return kernel
+
+
+__all__ += ["Sum", "Blend", "Convolution"]

@@ -988,3 +988,151 @@ class AttributeModifier(v2.Node):
 
         return ConvertAttributes([n for n, _ in inputs], [n for n, _ in outputs], function, convert(self._child))
 
+
+
+# ---------------------------------------------------------------------------- smoothing
+
+
+def _radius(owner: str, value) -> tuple[float, float, float]:
+    """``physical_radius``: ``[rx, ry, rz]`` (or one number) in mm, >= 0, one positive."""
+    values = value if isinstance(value, Sequence) and not isinstance(value, str) else [value]
+    radius = tuple(v2._number(owner, "physical_radius", v) for v in values)
+    if len(radius) == 1:
+        radius *= 3
+    if len(radius) != 3 or min(radius) < 0 or max(radius) <= 0:
+        raise DesignError(f"{owner}: physical_radius is [rx, ry, rz] in mm, >= 0 with one positive, got {value!r}",
+                          hint=_DOCS)
+    return radius
+
+
+def _voxel_size(owner: str, value) -> None:
+    """``override_voxel_size``: accepted (fgslice samples the child itself, without a grid)."""
+    if value is None:
+        return
+    sizes = value if isinstance(value, Sequence) and not isinstance(value, str) else [value]
+    if len(sizes) not in (1, 3) or any(v2._number(owner, "override_voxel_size", v) <= 0 for v in sizes):
+        raise DesignError(f"{owner}: override_voxel_size is [x, y, z] in mm, positive, got {value!r}", hint=_DOCS)
+
+
+def _targets(owner: str, attributes, built: nodes.Node) -> tuple[list[str], bool]:
+    """The fgslice channels of the child's attributes named by ``attributes`` (all of them
+    when empty) and whether its materials' fractions are smoothed."""
+    from fgslice.design.attributes import AttributeFields
+
+    if isinstance(attributes, str) or not isinstance(attributes, Sequence):
+        raise DesignError(f"{owner}: attributes is a list of attribute names (empty: all), got {attributes!r}",
+                          hint=_DOCS)
+    names = [_attribute_name(owner, a) for a in attributes]
+    if not names:
+        return list(AttributeFields(built).names), True
+    channels = [c for n in names if n != "volume_fractions" for c in _resolver_channels(n, built)]
+    if not channels and "volume_fractions" not in names:
+        raise DesignError(f"{owner}: the child has none of the attributes {', '.join(names)}",
+                          hint="set them on the child with set_attribute, or name the ones it has")
+    return channels, "volume_fractions" in names
+
+
+class AttributeBlend(v2.Node):
+    """OpenVCAD 3's ``Blend(child, attributes, physical_radius, num_passes=1,
+    override_voxel_size=None)``: the named attributes (all when the list is empty;
+    ``VOLUME_FRACTIONS``: the materials) box-blurred ``num_passes`` times over
+    ``physical_radius`` mm each side, inside the child (:mod:`fgslice.design.convolve`)."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__()
+        child, self._attributes, radius, passes, voxel = v2._bind(
+            "Blend", ("child", "attributes", "physical_radius", "num_passes", "override_voxel_size"), args, kwargs,
+            {"num_passes": 1, "override_voxel_size": None})
+        self._child = v2._child("Blend", child)
+        self._radius = _radius("Blend", radius)
+        if isinstance(passes, bool) or not isinstance(passes, numbers.Integral) or not 1 <= passes <= 8:
+            raise DesignError(f"Blend: num_passes is a whole number from 1 to 8, got {passes!r}", hint=_DOCS)
+        self._passes = int(passes)
+        _voxel_size("Blend", voxel)
+
+    def _build(self, convert) -> nodes.Node:
+        from fgslice.design.convolve import Smoothed, box_stencil
+
+        built = convert(self._child)
+        channels, fractions = _targets("Blend", self._attributes, built)
+        return Smoothed(built, *box_stencil(self._radius, self._passes), channels, fractions)
+
+
+class ConvolveKernel:
+    """Base of the convolution kernels: weights ``(2 rx + 1, 2 ry + 1, 2 rz + 1)``, indexed x, y, z."""
+
+    weights: np.ndarray
+
+    def get_radius_x(self) -> int:
+        return (self.weights.shape[0] - 1) // 2
+
+    def get_radius_y(self) -> int:
+        return (self.weights.shape[1] - 1) // 2
+
+    def get_radius_z(self) -> int:
+        return (self.weights.shape[2] - 1) // 2
+
+
+def _kernel_radii(owner: str, radii) -> tuple[int, int, int]:
+    out = []
+    for axis, r in zip(("rx", "ry", "rz"), radii):
+        if isinstance(r, bool) or not isinstance(r, numbers.Integral) or not 0 <= r <= 10:
+            raise DesignError(f"{owner}: {axis} is a whole number of taps from 0 to 10, got {r!r}", hint=_DOCS)
+        out.append(int(r))
+    return tuple(out)
+
+
+class BoxKernel(ConvolveKernel):
+    """``BoxKernel(radius)`` or ``BoxKernel(rx, ry, rz)``: equal weights on a
+    ``(2 rx + 1) x (2 ry + 1) x (2 rz + 1)`` grid of taps (a uniform average)."""
+
+    def __init__(self, *args) -> None:
+        v2._overload("BoxKernel", args, {1: "radius", 3: "rx, ry, rz"})
+        rx, ry, rz = _kernel_radii("BoxKernel", args * 3 if len(args) == 1 else args)
+        self.weights = np.ones((2 * rx + 1, 2 * ry + 1, 2 * rz + 1))
+
+
+class CustomKernel(ConvolveKernel):
+    """``CustomKernel(weights, rx, ry, rz)``: explicit weights, a flat list of
+    ``(2 rx + 1)(2 ry + 1)(2 rz + 1)`` numbers, x varying fastest, then y, then z."""
+
+    def __init__(self, weights, rx, ry, rz) -> None:
+        rx, ry, rz = _kernel_radii("CustomKernel", (rx, ry, rz))
+        if isinstance(weights, str) or not isinstance(weights, Sequence):
+            raise DesignError(f"CustomKernel: weights is a flat list of numbers, got {weights!r}", hint=_DOCS)
+        values = [v2._number("CustomKernel", "a weight", w) for w in weights]
+        shape = (2 * rz + 1, 2 * ry + 1, 2 * rx + 1)
+        if len(values) != shape[0] * shape[1] * shape[2]:
+            raise DesignError(f"CustomKernel: {len(values)} weights for a {shape[2]} x {shape[1]} x {shape[0]} kernel "
+                              f"(rx = {rx}, ry = {ry}, rz = {rz}) that needs {shape[0] * shape[1] * shape[2]}")
+        self.weights = np.asarray(values).reshape(shape).transpose(2, 1, 0)
+
+
+class Convolve(v2.Node):
+    """``Convolve(child, attributes, kernel, physical_radius, override_voxel_size=None)``:
+    the named attributes (all when the list is empty; ``VOLUME_FRACTIONS``: the
+    materials) replaced by the kernel's weighted mean, its taps spanning
+    ``physical_radius`` mm each side, inside the child (:mod:`fgslice.design.convolve`)."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__()
+        child, self._attributes, kernel, radius, voxel = v2._bind(
+            "Convolve", ("child", "attributes", "kernel", "physical_radius", "override_voxel_size"), args, kwargs,
+            {"override_voxel_size": None})
+        self._child = v2._child("Convolve", child)
+        if not isinstance(kernel, ConvolveKernel):
+            raise DesignError(f"Convolve: kernel is a pv.BoxKernel or pv.CustomKernel, got {kernel!r}", hint=_DOCS)
+        from fgslice.design.convolve import kernel_stencil
+
+        self._stencil = kernel_stencil(kernel.weights, _radius("Convolve", radius))
+        _voxel_size("Convolve", voxel)
+
+    def _build(self, convert) -> nodes.Node:
+        from fgslice.design.convolve import Smoothed
+
+        built = convert(self._child)
+        channels, fractions = _targets("Convolve", self._attributes, built)
+        return Smoothed(built, *self._stencil, channels, fractions)
+
+
+__all__ += ["AttributeBlend", "ConvolveKernel", "BoxKernel", "CustomKernel", "Convolve"]

@@ -14,6 +14,7 @@ array of their shape. Lengths in mm, angles of :func:`rotate` in degrees.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -40,6 +41,8 @@ __all__ = [
     "fgrade",
     "attribute",
     "blend",
+    "offset",
+    "shell",
     "design",
     "load_design",
     "parse_design",
@@ -216,6 +219,30 @@ def blend(size, *children: nodes.Node) -> nodes.Node:
     if any(v < 0 for v in vector) or not any(v > 0 for v in vector):
         raise DesignError("blend: sizes must be >= 0 with at least one positive")
     return Blend(vector, _children("blend", children))
+
+
+def offset(distance: float, *children: nodes.Node) -> nodes.Node:
+    """The children (their union) grown by ``distance`` mm, or shrunk when it is negative
+    (:mod:`fgslice.design.offset`); materials and attributes are the children's."""
+    from fgslice.design.offset import Offset
+
+    try:
+        distance = float(distance)
+    except (TypeError, ValueError):
+        raise DesignError(f"offset: the distance must be a number, got {distance!r}") from None
+    if not math.isfinite(distance):
+        raise DesignError(f"offset: the distance must be finite, got {distance!r}")
+    body = _children("offset", children)
+    return Offset(distance, body[0] if len(body) == 1 else nodes.Union(body))
+
+
+def shell(thickness: float, *children: nodes.Node) -> nodes.Node:
+    """The children (their union) hollowed to a closed wall ``thickness`` mm thick inside
+    their surface (:mod:`fgslice.design.offset`); materials and attributes are theirs."""
+    from fgslice.design.offset import Shell
+
+    body = _children("shell", children)
+    return Shell(_positive("shell", "thickness", thickness), body[0] if len(body) == 1 else nodes.Union(body))
 
 
 def design(
