@@ -38,6 +38,7 @@ from fgslice import __version__
 from fgslice.compat import context
 from fgslice.compat import pyvcad as v2
 from fgslice.compat.numba_standin import CFunc
+from fgslice.compat.pyvcad_cad import CADModel  # noqa: F401 - served as pyvcad.CADModel
 from fgslice.design import api, nodes
 from fgslice.design.attribute_ops import AverageFractions, ConvertAttributes, Reducer, ResolveConflicts
 from fgslice.design.attributes import ROLE_SPEEDS, Attribute
@@ -49,7 +50,7 @@ _DOCS = "see the OpenVCAD 3 section of docs/language.md"
 __all__ = [
     "version", "DefaultAttributes", "FloatAttribute", "Vec3Attribute", "Vec4Attribute", "VolumeFractionsAttribute",
     "Identity", "BBoxUnion", "BBoxIntersection", "Torus", "AttributeModifier", "LookupTableEntry",
-    "LookupTableConverter", "ExpressionConverter", "InterpolationMode", "resolvers", "Vec4",
+    "LookupTableConverter", "ExpressionConverter", "InterpolationMode", "resolvers", "Vec4", "CADModel",
 ]
 
 
