@@ -265,3 +265,7 @@ def test_a_missing_extra_names_it(tmp_path, monkeypatch):
     assert result.exit_code != 0 and "pip install 'fgslice[cad]'" in result.output
     with pytest.raises(FgsliceError, match="need Open CASCADE"):
         load_script(script(tmp_path, "root = pv.CADModel.from_cadquery(object()).to_node()\n"))
+    (tmp_path / "part.vcad").write_text('mesh("part.step", "red");\n')
+    with pytest.raises(DesignError, match="mesh 'part.step': CAD models .* need Open CASCADE") as raised:
+        load_design(tmp_path / "part.vcad")
+    assert "pip install 'fgslice[cad]'" in raised.value.hint and raised.value.line == 1

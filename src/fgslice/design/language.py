@@ -281,8 +281,8 @@ def _mesh(b: _Builder, args, where):
 
     try:
         geometry = load_cad(path) if is_cad_file(path) else load_mesh(path)
-    except MeshError as exc:
-        raise MeshError(f"mesh '{name}': {exc.message}", hint=exc.hint, **args[0].where.error_kwargs()) from None
+    except (MeshError, DesignError) as exc:  # a DesignError: a CAD file without the cad extra
+        raise type(exc)(f"mesh '{name}': {exc.message}", hint=exc.hint, **args[0].where.error_kwargs()) from None
     return nodes.MeshShape(geometry, str(path), b.material(mat), where)
 
 
