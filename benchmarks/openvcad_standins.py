@@ -6,8 +6,8 @@ copies the examples folder and writes in place of each mesh pointer a generated 
 about the same size in bytes: an ellipsoid 40 x 20 x 10 mm (icosphere, as many
 subdivisions as the byte size suggests) centred at the origin; the 3DBenchy, when
 ``shared/data/meshes/3DBenchy.stl`` beside a folder above this one, or ``$BENCHY``, is at hand, is the real one.
-CAD files (.step, .iges) and other pointers are left as they are (their examples need
-the CAD extra and the real files).
+CAD files (.step, .iges) get solids built with Open CASCADE when the CAD extra is
+installed (``cad_standins.py``), else stay pointers; other pointers are left as they are.
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
+from cad_standins import CAD_SUFFIXES, write_standin
 
 LFS_HEADER = b"version https://git-lfs.github.com/spec/v1"
 BYTES_PER_TRIANGLE = {".stl": 50, ".3mf": 15, ".obj": 40, ".off": 30}
@@ -57,6 +58,8 @@ def examples_with_standins(checkout: Path, target: Path) -> Path:
     shutil.copytree(source, examples)
     for path in examples.rglob("*"):
         suffix = path.suffix.lower()
+        if path.is_file() and suffix in CAD_SUFFIXES and lfs_size(path) is not None:
+            write_standin(path)
         if not path.is_file() or suffix not in BYTES_PER_TRIANGLE:
             continue
         size = lfs_size(path)

@@ -42,7 +42,7 @@ _DOCS = "see the supported subset in docs/language.md"
 
 __all__ = [
     "Vec3", "MaterialDefs", "default_materials", "resources_path",
-    "RectPrism", "Sphere", "Cylinder", "Strut", "Mesh", "Function",
+    "RectPrism", "Sphere", "Cylinder", "Strut", "Mesh", "CAD", "Function",
     "Union", "Intersection", "Difference", "Translate", "Rotate", "Scale", "FGrade",
     "LatticeType", "GraphLattice", "Tile", "ImplicitUnitCell", "GraphUnitCell",
 ]
@@ -351,6 +351,29 @@ class Mesh(_Leaf):
         found = resolve_mesh_path(str(path), run.path.resolve().parent if run else None)
         try:
             node = api.mesh(found, _material("Mesh", material))
+        except MeshError as error:
+            error.file = error.line = error.column = error.source_line = None
+            raise
+        super().__init__(node)
+
+
+class CAD(_Leaf):
+    """``CAD(path, use_fast_mode=True, material=1)`` (OpenVCAD 3: ``CAD(path,
+    use_fast_mode=True)``): the closed solids of a STEP, IGES (or BREP) file, in its own
+    coordinates (mm), tessellated to 0.0125 mm in both modes (:mod:`fgslice.design.cad`;
+    the ``cad`` extra). Relative paths: the script's folder, then the cwd."""
+
+    def __init__(self, path, *args, **kwargs) -> None:
+        _, material = _bind("CAD", ("use_fast_mode", "material"), args, kwargs, {"use_fast_mode": True, "material": 1})
+        if not isinstance(path, (str, Path)):
+            raise DesignError(f"CAD: path must be a file name, got {path!r}", hint=_DOCS)
+        run = context.current()
+        try:
+            found = resolve_mesh_path(str(path), run.path.resolve().parent if run else None)
+        except MeshError as error:
+            raise MeshError(f"CAD file not found: '{path}'", hint=error.hint) from None
+        try:
+            node = api.cad(found, _material("CAD", material))
         except MeshError as error:
             error.file = error.line = error.column = error.source_line = None
             raise

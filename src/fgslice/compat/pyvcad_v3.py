@@ -42,6 +42,7 @@ from fgslice.compat.pyvcad_v3_leaves import (  # noqa: F401 - served under pyvca
     Cone, DICOMLoader, FloatVolume, MappedGraphLattice, MappedImplicitLattice, SignedDistanceField, Vec2sVolume,
     Vec3sVolume, Vec4sVolume, vdb_loader, CellMap, GraphUnitCell, ImplicitUnitCell)
 from fgslice.compat.numba_standin import CFunc
+from fgslice.compat.pyvcad_cad import CADModel  # noqa: F401 - served as pyvcad.CADModel
 from fgslice.compat.pyvcad_v3_fields import FloatOps, Vec3Ops, derived
 from fgslice.compat.pyvcad_v3_samples import (TYPE_NAMES, AttributeSamples, ReturnType, convert_per_point,
                                               return_type_by_name)
@@ -59,7 +60,7 @@ _DOCS = "see the OpenVCAD 3 section of docs/language.md"
 __all__ = [
     "version", "DefaultAttributes", "FloatAttribute", "Vec3Attribute", "Vec4Attribute", "VolumeFractionsAttribute",
     "Identity", "BBoxUnion", "BBoxIntersection", "Torus", "AttributeModifier", "LookupTableEntry",
-    "LookupTableConverter", "ExpressionConverter", "InterpolationMode", "resolvers", "Vec4",
+    "LookupTableConverter", "ExpressionConverter", "InterpolationMode", "resolvers", "Vec4", "CADModel",
     "DerivedFloatAttribute", "Attribute", "AttributeSamples", "AttributeConverterBase", *leaves.__all__,
 ]
 

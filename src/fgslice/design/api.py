@@ -32,6 +32,8 @@ __all__ = [
     "strut",
     "function",
     "mesh",
+    "cad",
+    "cad_shape",
     "union",
     "intersection",
     "difference",
@@ -121,15 +123,40 @@ def function(lo, hi, field: Field, material: str | None = None) -> nodes.Node:
 
 
 def mesh(path: str | Path, material: str | None = None) -> nodes.Node:
-    """A mesh file (STL, 3MF, OBJ) in its own coordinates; relative paths from the cwd."""
+    """A mesh file (STL, 3MF, OBJ) in its own coordinates; relative paths from the cwd.
+    A CAD file (STEP, IGES, BREP) is read by :func:`cad`."""
+    from fgslice.design.cad import is_cad_file
     from fgslice.design.mesh import load_mesh
 
+    if is_cad_file(path):
+        return cad(path, material)
     found = resolve_mesh_path(str(path), None)
     try:
         geometry = load_mesh(found)
     except MeshError as exc:
         raise MeshError(f"mesh '{path}': {exc.message}", file=found, hint=exc.hint) from None
     return nodes.MeshShape(geometry, str(found), _material(material))
+
+
+def cad(path: str | Path, material: str | None = None) -> nodes.Node:
+    """A CAD file (STEP, IGES, BREP) in its own coordinates (mm), its solids tessellated
+    (:mod:`fgslice.design.cad`; needs the ``cad`` extra); relative paths from the cwd."""
+    from fgslice.design.cad import load_cad
+
+    found = resolve_mesh_path(str(path), None)
+    try:
+        geometry = load_cad(found)
+    except MeshError as exc:
+        raise MeshError(f"CAD file '{path}': {exc.message}", file=found, hint=exc.hint) from None
+    return nodes.MeshShape(geometry, str(found), _material(material))
+
+
+def cad_shape(shape, material: str | None = None, name: str = "the CAD model") -> nodes.Node:
+    """An Open CASCADE shape, or a CadQuery ``Workplane``/``Shape`` wrapping one (mm), its
+    solids tessellated (:func:`fgslice.design.cad.occ_shape`; needs the ``cad`` extra)."""
+    from fgslice.design.cad import occ_shape, tessellate
+
+    return nodes.MeshShape(tessellate(occ_shape(shape, name), name), f"<{name}>", _material(material))
 
 
 def union(*children: nodes.Node) -> nodes.Node:

@@ -276,12 +276,13 @@ def _function(b: _Builder, args, where):
 def _mesh(b: _Builder, args, where):
     (name,), mat = _match("mesh", '("file"[, material])', args, [("string",)], where, material=True)
     path = resolve_mesh_path(name, b.base_dir, args[0].where)
+    from fgslice.design.cad import is_cad_file, load_cad
     from fgslice.design.mesh import load_mesh
 
     try:
-        geometry = load_mesh(path)
-    except MeshError as exc:
-        raise MeshError(f"mesh '{name}': {exc.message}", hint=exc.hint, **args[0].where.error_kwargs()) from None
+        geometry = load_cad(path) if is_cad_file(path) else load_mesh(path)
+    except (MeshError, DesignError) as exc:  # a DesignError: a CAD file without the cad extra
+        raise type(exc)(f"mesh '{name}': {exc.message}", hint=exc.hint, **args[0].where.error_kwargs()) from None
     return nodes.MeshShape(geometry, str(path), b.material(mat), where)
 
 
