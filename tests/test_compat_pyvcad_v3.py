@@ -188,7 +188,7 @@ def test_smooth_union_fills_the_gap_between_its_children(tmp_path):
 
 
 @pytest.mark.parametrize("code,message", [
-    ("root = pv.Sum(pv.Sphere(pv.Vec3(0, 0, 0), 1.0))", "pyvcad.Sum is not supported"),
+    ("root = pv.Render_Tree_Diagram(pv.Sphere(pv.Vec3(0, 0, 0), 1.0))", "pyvcad.Render_Tree_Diagram is not supported"),
     ("def f(x, y, z, d):\n    return x\nroot = pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(1, 1, 1))\n"
      "root.set_attribute('modulus', pv.FloatAttribute(f))", "decorated with numba's @cfunc"),
     ("root = pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(1, 1, 1))\n"
