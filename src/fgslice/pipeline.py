@@ -43,6 +43,7 @@ from fgslice.design.color_mix import mix_colors
 from fgslice.errors import FgsliceError, SliceError
 from fgslice.executor import Consumer, default_jobs, map_ordered
 from fgslice.guards import check_resources
+from fgslice.resources import check_budget, estimate_resources
 from fgslice.interrupts import sigint_held
 from fgslice.machine.state_dialect import dialect_for
 from fgslice.machine.gcode import GcodeWriter, build_number_tables, prepare_bodies
@@ -377,6 +378,7 @@ def slice_to_gcode(
     placement = place_design(design, settings)
     layers = layer_heights(design, settings)
     check_resources(design, settings, len(layers))
+    budget = check_budget(estimate_resources(design, settings, len(layers), jobs), settings, output)
     bed_center = np.array([settings.bed_x / 2, settings.bed_y / 2])
     job = SliceJob(design, settings, palette, placement, layers, bed_center,
                    grading=SegmentGrading.of(attributes, placement.offset, settings),
@@ -500,7 +502,7 @@ def slice_to_gcode(
     stats.setdefault("warnings", [])
     stats["warnings"] = list(stats["warnings"]) + strategy1.summarize_short_pieces(
         short_records, total, settings.min_segment_mm, palette.size
-    ) + _sliver_warning(reassigned, total, settings) + coverage
+    ) + _sliver_warning(reassigned, total, settings) + coverage + budget
     if settings.strategy == 2:  # whose sectioning built the whole meshes' tables already
         stats["warnings"] += mesh_warnings(design)
     if settings.strategy == 2 and attributes is not None and "infill_density" in attributes.names:
