@@ -486,7 +486,7 @@ def slice_to_gcode(
                     told = size
         stats = writer.finish()
         coverage = check_coverage(covered[0], covered[1], covered[2], uncovered[0], settings.strategy,
-                                  settings.bead_width)
+                                  settings.bead_width, total)
         handle.flush()
         if follower:
             os.fsync(handle.fileno())  # what is left of the disk write overlaps the verifier's last block
