@@ -38,6 +38,7 @@ import numpy as np
 import shapely
 
 from fgslice.coverage import check_coverage, mesh_warnings, part_volume
+from fgslice.design.fingerprint import fingerprint
 from fgslice.design.base import Design
 from fgslice.design.color_mix import mix_colors
 from fgslice.errors import FgsliceError, SliceError
@@ -369,6 +370,7 @@ def slice_to_gcode(
     """
     started = time.perf_counter()
     jobs = default_jobs() if jobs is None else max(1, jobs)
+    design_fingerprint = fingerprint(design)  # of the design as given: simulate compares it
     design = mix_colors(design, settings)
     attributes = checked_attributes(design, settings)
     levels = state_levels(attributes.ranges, attributes.cover, settings) if attributes is not None else None
@@ -450,6 +452,7 @@ def slice_to_gcode(
         header = {
             "placement_offset": ",".join(f"{v:.4f}" for v in placement.offset),
             "materials": ",".join(m.name for m in design.materials),
+            "design_fingerprint": design_fingerprint,
             **({"temperature_levels": ",".join(f"{t:g}" for t in palette.levels)}
                if isinstance(palette, StatePalette) else {}),
             **(comments or {}),
