@@ -254,12 +254,23 @@ def _helps(settings: Settings, what: str) -> str:
     return "; ".join(tips)
 
 
+def _duration(seconds: float) -> str:
+    """``12 s``, ``4.5 min``, ``2.1 h`` (two significant digits)."""
+    for unit, size in (("h", 3600.0), ("min", 60.0)):
+        if seconds >= size:
+            return f"{float(f'{seconds / size:.2g}'):g} {unit}"
+    return f"{float(f'{seconds:.2g}'):g} s"
+
+
+def _megabytes(mb: float) -> str:
+    """``0.098 MB``, ``587 MB``, ``3.1 GB`` (two or three significant digits)."""
+    return f"{float(f'{mb / 1000:.2g}'):g} GB" if mb >= 1000 else f"{float(f'{mb:.3g}'):g} MB"
+
+
 def format_estimate(est: ResourceEstimate) -> str:
     """One line: ``estimate (10 layers, scaled from 3 of them): slicing ~12 s, memory ~300 MB, G-code ~40 MB, print ~2.1 h``."""
-    hours = est.print_s / 3600.0
-    printing = f"{hours:.2g} h" if hours >= 1 else f"{est.print_s / 60:.2g} min"
-    return (f"estimate ({est.layers} layers, scaled from {PROBES} of them): slicing ~{est.slice_s:.2g} s, "
-            f"memory ~{est.memory_mb:.3g} MB, G-code ~{est.gcode_mb:.3g} MB, print ~{printing}")
+    return (f"estimate ({est.layers} layers, scaled from {PROBES} of them): slicing ~{_duration(est.slice_s)}, "
+            f"memory ~{_megabytes(est.memory_mb)}, G-code ~{_megabytes(est.gcode_mb)}, print ~{_duration(est.print_s)}")
 
 
 def check_budget(est: ResourceEstimate, settings: Settings, output: str | os.PathLike | None = None,
