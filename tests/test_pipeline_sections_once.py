@@ -7,6 +7,7 @@ from fgslice.design.mesh import MeshGeometry
 from fgslice.machine.gcode_reader import read_gcode
 from fgslice.pipeline import slice_to_gcode
 from fgslice.preview.thumbnails import render_thumbnails
+from fgslice.resources import PROBES
 from fgslice.settings import load_settings
 
 
@@ -23,5 +24,6 @@ def test_strategy2_thumbnails_take_the_layers_sections(tmp_path, monkeypatch):
     slice_to_gcode(design, settings, out, jobs=1, thumbnails=lambda layers: render_thumbnails(design, settings, layers=layers))
     layers = len(read_gcode(out).layer_z)
     assert layers > 20
-    assert len(planes) == layers  # every layer cut once, none again for the thumbnails
+    # every layer cut once, none again for the thumbnails; the resource estimate cuts PROBES planes first
+    assert len(planes) == layers + PROBES
     assert b"thumbnail begin 16x16" in out.read_bytes()

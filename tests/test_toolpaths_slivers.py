@@ -8,7 +8,7 @@ from fgslice.settings import Settings
 from fgslice.slicing.layers import LayerRegions
 from fgslice.toolpaths import strategy2
 from fgslice.toolpaths.paths import bead_area
-from fgslice.toolpaths.slivers import MIN_SLIVER_SHARE, give_slivers
+from fgslice.toolpaths.slivers import MAX_KEPT_MM2, MIN_SLIVER_SHARE, give_slivers
 
 W, H = 0.4, 0.2
 
@@ -108,17 +108,25 @@ def test_a_tail_hanging_from_its_own_face_only_stays_with_it():
 
 
 def test_a_layer_whose_slivers_are_under_the_share_keeps_them():
-    """A 0.25 mm ring of color 1 between a hub and a disc of 60 mm: 0.1 % of the area,
-    under MIN_SLIVER_SHARE, so no overlay runs and every face stays as it was; the same
-    ring on a 10 mm disc (0.6 mm^2 of 314, 2 %) is handed over."""
-    hub, ring, rest = shapely.MultiPolygon([disc(4)]), disc(4.25).difference(disc(4)), disc(60).difference(disc(4.25))
-    faces = (hub, shapely.MultiPolygon([ring]), shapely.MultiPolygon([rest]))
-    assert ring.area < MIN_SLIVER_SHARE * disc(60).area
+    """A 0.25 mm ring of color 1 between a 0.8 mm hub and a disc of 60 mm: 1.4 mm^2, under
+    MIN_SLIVER_SHARE and MAX_KEPT_MM2, so no overlay runs and every face stays as it was;
+    the same ring on a 10 mm disc (2 % of it) is handed over, and so is a ring of 6.5 mm^2
+    around a 4 mm hub on the 60 mm disc (0.1 %, but more than MAX_KEPT_MM2: on a large
+    part 1 % of a layer is too much to leave unprinted)."""
+    def faces_around(r):
+        hub, ring, rest = shapely.MultiPolygon([disc(r)]), disc(r + 0.25).difference(disc(r)), disc(60).difference(disc(r + 0.25))
+        return (hub, shapely.MultiPolygon([ring]), shapely.MultiPolygon([rest])), ring.area
+
+    faces, ring = faces_around(0.8)
+    assert ring < min(MIN_SLIVER_SHARE * disc(60).area, MAX_KEPT_MM2)
     given, area = give_slivers(faces, W)
     assert area == 0.0 and all(a is b for a, b in zip(given, faces))
     small = ring_faces()
     assert small[1].area > MIN_SLIVER_SHARE * disc(10).area
     assert give_slivers(small, W)[1] > 0
+    faces, ring = faces_around(4.0)
+    assert MAX_KEPT_MM2 < ring < MIN_SLIVER_SHARE * disc(60).area
+    assert give_slivers(faces, W)[1] > 0.9 * ring
 
 
 def test_a_receiver_touching_the_window_only_along_a_line():

@@ -243,6 +243,14 @@ def check_command(design, materials, profile, sets):
     loaded = load_design(design, materials)
     report = check_design(loaded, settings=settings)
     click.echo(format_report(report))
+    if report.usable:
+        from fgslice.executor import default_jobs
+        from fgslice.resources import estimate_resources, format_estimate
+
+        try:
+            click.echo(format_estimate(estimate_resources(loaded, settings, jobs=default_jobs())))
+        except FgsliceError as error:  # e.g. no layers: the slice says the same
+            click.echo(f"estimate: none ({error})")
     if report.usable and "temperature" in report.attribute_cover:
         from fgslice.machine.grading import checked_attributes
         from fgslice.slicing.states import state_levels

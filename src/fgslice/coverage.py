@@ -11,7 +11,8 @@ a slice that prints nothing and warns about one whose part is partly missing:
   :data:`VOLUME_TOLERANCE` away from the sections' volume (``area x layer height``):
   a warning with both volumes;
 * an area left unprinted because it is narrower than a bead over more than
-  :data:`UNCOVERED_SHARE` of the sections' area: a warning naming ``bead_width``.
+  :data:`UNCOVERED_SHARE` of the sections' area, or more than
+  :data:`UNCOVERED_MM2_PER_LAYER` a layer on average: a warning naming ``bead_width``.
 """
 
 from __future__ import annotations
@@ -28,6 +29,11 @@ VOLUME_TOLERANCE = 0.03
 
 UNCOVERED_SHARE = 0.01
 """Warn when more than this share of the sections' area is narrower than a bead and not printed."""
+
+UNCOVERED_MM2_PER_LAYER = 2.0
+"""... or more than this area per layer on average (mm^2): on a large part 1 % is
+hundreds of mm^2 a layer. As much as a layer may keep of its slivers
+(:data:`fgslice.toolpaths.slivers.MAX_KEPT_MM2`)."""
 
 
 def part_volume(paths: Iterable[Path]) -> float:
@@ -52,7 +58,7 @@ def part_volume(paths: Iterable[Path]) -> float:
 
 
 def check_coverage(section_mm3: float, section_mm2: float, part_mm3: float, uncovered_mm2: float,
-                   strategy: int, bead_width: float) -> list[str]:
+                   strategy: int, bead_width: float, layers: int | None = None) -> list[str]:
     """Warnings about a slice whose part is partly missing (see the module docstring).
 
     Args:
@@ -62,6 +68,7 @@ def check_coverage(section_mm3: float, section_mm2: float, part_mm3: float, unco
         uncovered_mm2: area narrower than a bead that no path covers, all layers, mm^2.
         strategy: 1 or 2.
         bead_width: mm.
+        layers: the layer count (None: the share of the area alone decides).
 
     Raises:
         SliceError: the slice prints nothing of the part.
@@ -86,7 +93,10 @@ def check_coverage(section_mm3: float, section_mm2: float, part_mm3: float, unco
             f"{'over' if part_mm3 > section_mm3 else 'under'}-filled (features a few beads wide lose their "
             "corners: a smaller bead_width fits them better)"
         )
-    if uncovered_mm2 > UNCOVERED_SHARE * section_mm2:
+    limit = UNCOVERED_SHARE * section_mm2
+    if layers:
+        limit = min(limit, UNCOVERED_MM2_PER_LAYER * layers)
+    if uncovered_mm2 > limit:
         warnings.append(
             f"{uncovered_mm2:.1f} mm^2 of the sections ({100 * uncovered_mm2 / section_mm2:.1f} %) are narrower "
             f"than a bead (bead_width = {bead_width:g} mm) and are not printed; lower bead_width to print them"

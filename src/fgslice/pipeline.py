@@ -38,12 +38,14 @@ import numpy as np
 import shapely
 
 from fgslice.coverage import check_coverage, mesh_warnings, part_volume
+from fgslice.design.fingerprint import fingerprint
 from fgslice.design.base import Design
 from fgslice.design.color_mix import mix_colors
 from fgslice.design.lattice_widths import check_lattice_widths
 from fgslice.errors import FgsliceError, SliceError
 from fgslice.executor import Consumer, default_jobs, map_ordered
 from fgslice.guards import check_resources
+from fgslice.resources import check_budget, estimate_resources
 from fgslice.interrupts import sigint_held
 from fgslice.machine.state_dialect import dialect_for
 from fgslice.machine.gcode import GcodeWriter, build_number_tables, prepare_bodies
@@ -370,6 +372,7 @@ def slice_to_gcode(
     """
     started = time.perf_counter()
     jobs = default_jobs() if jobs is None else max(1, jobs)
+    design_fingerprint = fingerprint(design)  # of the design as given: simulate compares it
     design = mix_colors(design, settings)
     attributes = checked_attributes(design, settings)
     levels = state_levels(attributes.ranges, attributes.cover, settings) if attributes is not None else None
@@ -380,6 +383,7 @@ def slice_to_gcode(
     layers = layer_heights(design, settings)
     check_resources(design, settings, len(layers))
     check_lattice_widths(design, settings.bead_width)
+    budget = check_budget(estimate_resources(design, settings, len(layers), jobs), settings, output)
     bed_center = np.array([settings.bed_x / 2, settings.bed_y / 2])
     job = SliceJob(design, settings, palette, placement, layers, bed_center,
                    grading=SegmentGrading.of(attributes, placement.offset, settings),
@@ -451,6 +455,7 @@ def slice_to_gcode(
         header = {
             "placement_offset": ",".join(f"{v:.4f}" for v in placement.offset),
             "materials": ",".join(m.name for m in design.materials),
+            "design_fingerprint": design_fingerprint,
             **({"temperature_levels": ",".join(f"{t:g}" for t in palette.levels)}
                if isinstance(palette, StatePalette) else {}),
             **(comments or {}),
@@ -494,7 +499,7 @@ def slice_to_gcode(
             faults, planned_s = follower.result()
         stats = writer.finish(planned_s)
         coverage = check_coverage(covered[0], covered[1], covered[2], uncovered[0], settings.strategy,
-                                  settings.bead_width)
+                                  settings.bead_width, total)
         handle.flush()
         if verify:
             if not follower:
@@ -509,7 +514,7 @@ def slice_to_gcode(
     stats.setdefault("warnings", [])
     stats["warnings"] = list(stats["warnings"]) + strategy1.summarize_short_pieces(
         short_records, total, settings.min_segment_mm, palette.size
-    ) + _sliver_warning(reassigned, total, settings) + coverage
+    ) + _sliver_warning(reassigned, total, settings) + coverage + budget
     if settings.strategy == 2:  # whose sectioning built the whole meshes' tables already
         stats["warnings"] += mesh_warnings(design)
     if settings.strategy == 2 and attributes is not None and "infill_density" in attributes.names:

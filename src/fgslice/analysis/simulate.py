@@ -656,9 +656,17 @@ def simulate(
     from fgslice.slicing.states import header_palette, material_palette
 
     from fgslice.design.color_mix import mix_colors
+    from fgslice.design.fingerprint import fingerprint
 
-    design = mix_colors(design, settings)  # a colour attribute printed as filament mixtures
     header = GcodeHeader() if isinstance(gcode, GcodeProgram) else _header_of(gcode)
+    recorded = header.settings.get("design_fingerprint")
+    if recorded and recorded != fingerprint(design):
+        raise DesignError(
+            f"the G-code was sliced from another design (its design_fingerprint {recorded} is not this "
+            f"design's {fingerprint(design)}: the shape or the field differ)",
+            hint="pass the design the G-code was sliced from (--design), or slice this design again",
+        )
+    design = mix_colors(design, settings)  # a colour attribute printed as filament mixtures
     names = tuple(m.name for m in design.materials)
     if header.materials and header.materials != names:
         raise DesignError(

@@ -504,13 +504,14 @@ class MeshShape(Primitive):
         return self.geometry.sections(zs)
 
 
-def _union_raw(children: Sequence[Node], x, y, z, columns: Columns) -> np.ndarray:
-    """Fractions of a union: first child containing the point, else the nearest child."""
+def _union_raw(children: Sequence[Node], x, y, z, columns: Columns, index=None) -> np.ndarray:
+    """Fractions of a union: first child containing the point, else the nearest child
+    (located through ``index``, a :class:`~fgslice.design.union_index.ChildIndex`, when given)."""
     if len(children) == 1:
         return children[0].raw(x, y, z, columns)
     from fgslice.design.membership import owners
 
-    owner = owners(children, x, y, z)
+    owner = index.owners(x, y, z) if index is not None else owners(children, x, y, z)
     out = np.empty((np.shape(x)[0], columns.k))
     for i, child in enumerate(children):
         sel = np.flatnonzero(owner == i)
@@ -529,7 +530,21 @@ class Union(Node):
     kind = "union"
 
     def sdf(self, x, y, z):
+        if self._index is not None:
+            return self._index.sdf(x, y, z)
         return functools.reduce(np.minimum, (c.sdf(x, y, z) for c in self.children))
+
+    @functools.cached_property
+    def _index(self):
+        """The children by bounding box (:mod:`fgslice.design.union_index`) when there are
+        many and none is located by its sections (meshes); None otherwise."""
+        from fgslice.design.membership import uses_sections
+        from fgslice.design.union_index import MANY_CHILDREN, ChildIndex
+
+        if len(self.children) <= MANY_CHILDREN or any(uses_sections(c) for c in self.children):
+            return None
+        index = ChildIndex(self.children)
+        return index if index.usable else None
 
     def _bounds(self):
         boxes = [c.bounds() for c in self.children]
@@ -540,7 +555,7 @@ class Union(Node):
         return list(shapely.union_all(np.array([c.sections(zs, spacing) for c in self.children], dtype=object), axis=0))
 
     def raw(self, x, y, z, columns):
-        return _union_raw(self.children, x, y, z, columns)
+        return _union_raw(self.children, x, y, z, columns, self._index)
 
     @functools.cached_property
     def coordinate_free(self) -> bool:

@@ -42,10 +42,15 @@ merge without the zero-area holes along it that a floating overlay leaves (an er
 would widen them into gaps of a bead's width)."""
 
 MIN_SLIVER_SHARE = 0.01
-"""A layer whose faces lose at most this share of their area to their opening keeps its
-slivers as they are: they are under 1 % of its volume (the 3DBenchy's band tips, about
+"""A layer whose faces lose at most this share of their area to their opening (and at
+most :data:`MAX_KEPT_MM2`) keeps its slivers as they are: they are under 1 % of its volume (the 3DBenchy's band tips, about
 1 mm^2 a layer; the palette object's, 0.5 mm^2 of 15,000), and handing them over costs
 20-500 ms of overlays per layer."""
+
+MAX_KEPT_MM2 = 2.0
+"""A layer keeps its slivers only when they are also at most this area (mm^2): on a
+large part, 1 % of a layer is hundreds of mm^2 (a 200 mm box graded by a curved field
+kept 28 mm^2 of band tips along its surface on each layer, unprinted)."""
 
 CONTACT_TOLERANCE = 1e-3
 """Two pieces closer than this (mm) touch; their shared boundary is measured within it."""
@@ -68,7 +73,7 @@ def give_slivers(faces, width: float) -> tuple[tuple[shapely.Geometry, ...], flo
     parts, owner = parts[polygon], owner[polygon]
     opened = opening(parts, width / 2)
     lost = shapely.area(parts) - shapely.area(opened)  # at least the slivers' area: a cheap bound first
-    if lost.sum() <= MIN_SLIVER_SHARE * shapely.area(parts).sum():
+    if lost.sum() <= min(MIN_SLIVER_SHARE * shapely.area(parts).sum(), MAX_KEPT_MM2):
         return tuple(faces), 0.0
     thin = np.flatnonzero(lost >= MIN_SLIVER_AREA)
     rest, rest_of = shapely.get_parts(shapely.difference(parts[thin], opened[thin]), return_index=True)

@@ -1,0 +1,102 @@
+"""The children of a large union located by their bounding boxes, so that a point is
+evaluated against the few children near it instead of all of them.
+
+A union of thousands of primitives (a design listing 100 000 cubes) would otherwise
+evaluate every child's distance at every point: ``children x points`` work and, for the
+membership of each point, a ``children x points`` table. :class:`ChildIndex` keeps the
+children's XY boxes in a shapely STRtree and, for a batch of points:
+
+1. evaluates each point's nearest box's child: ``v``, an upper estimate of the union's
+   distance there;
+2. evaluates the children whose boxes lie within ``max(v, 0)`` of the point (in 3-D);
+   the others are farther than ``v`` from it, and, since every node's distance is at
+   most the true distance (:class:`~fgslice.design.nodes.Affine` scales it down by its
+   smallest stretch), their distance cannot be the union's when they are exact, and the
+   union's value stays a valid lower bound of the true distance when they are not.
+
+A point inside a child lies in its box, so inside/outside and the first child containing
+a point are exact. Used by :class:`~fgslice.design.nodes.Union` above
+:data:`MANY_CHILDREN` children.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import shapely
+
+MANY_CHILDREN = 64
+"""A union of more children than this locates them by their boxes."""
+
+
+class ChildIndex:
+    """The non-empty children of a union, by bounding box (design frame, mm)."""
+
+    def __init__(self, children: Sequence) -> None:
+        self.children = list(children)
+        bounds = [c.bounds() for c in self.children]
+        lo = np.array([b[0] for b in bounds], dtype=float).reshape(-1, 3)
+        hi = np.array([b[1] for b in bounds], dtype=float).reshape(-1, 3)
+        self.kept = np.flatnonzero(~np.any(lo > hi, axis=1))
+        self.lo, self.hi = lo[self.kept], hi[self.kept]
+        self.tree = shapely.STRtree(shapely.box(self.lo[:, 0], self.lo[:, 1], self.hi[:, 0], self.hi[:, 1]))
+
+    @property
+    def usable(self) -> bool:
+        """Whether any child is non-empty (otherwise every child is evaluated as usual)."""
+        return len(self.kept) > 0
+
+    def pairs(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(point, child, distance)``: every child that can decide each 1-D point, with
+        its distance there (a point may appear with the same child twice)."""
+        points = shapely.points(x, y)
+        p0, t0 = self.tree.query_nearest(points, all_matches=False)
+        v0 = self._evaluate(p0, t0, x, y, z)
+        upper = np.full(len(x), np.inf)
+        np.minimum.at(upper, p0, v0)
+        reach = np.maximum(upper, 0.0)
+        p1, t1 = self.tree.query(points, predicate="dwithin", distance=reach)
+        gap = np.maximum(np.maximum(self.lo[t1] - np.c_[x[p1], y[p1], z[p1]], np.c_[x[p1], y[p1], z[p1]] - self.hi[t1]), 0)
+        near = np.sqrt((gap**2).sum(axis=1)) <= reach[p1]
+        nearest = np.full(len(x), -1)
+        nearest[p0] = t0
+        near &= t1 != nearest[p1]  # the nearest box's child is evaluated already
+        p1, t1 = p1[near], t1[near]
+        v1 = self._evaluate(p1, t1, x, y, z)
+        return np.concatenate([p0, p1]), self.kept[np.concatenate([t0, t1])], np.concatenate([v0, v1])
+
+    def sdf(self, x, y, z) -> np.ndarray:
+        """The union's distance at the points (broadcast together), see the module docstring."""
+        x, y, z = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (x, y, z)))
+        shape = x.shape
+        point, _, distance = self.pairs(x.ravel(), y.ravel(), z.ravel())
+        out = np.full(x.size, np.inf)
+        np.minimum.at(out, point, distance)
+        return out.reshape(shape)
+
+    def owners(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """Index of the child deciding each 1-D point: the first containing it, else the nearest."""
+        point, child, distance = self.pairs(x, y, z)
+        inside = distance <= 0
+        # inside first, then by child index (the first containing); outside by distance
+        order = np.lexsort((child, np.where(inside, 0.0, distance), ~inside, point))
+        first = order[np.r_[True, np.diff(point[order]) != 0]]
+        owner = np.zeros(len(x), dtype=np.int64)
+        owner[point[first]] = child[first]
+        return owner
+
+    def _evaluate(self, point: np.ndarray, tree_index: np.ndarray, x, y, z) -> np.ndarray:
+        """Each pair's child's distance at its point, one call per child."""
+        out = np.empty(len(point))
+        if not len(point):
+            return out
+        order = np.argsort(tree_index, kind="stable")
+        starts = np.flatnonzero(np.r_[True, np.diff(tree_index[order]) != 0])
+        ends = np.r_[starts[1:], len(order)]
+        for start, end in zip(starts, ends):
+            rows = order[start:end]
+            idx = point[rows]
+            child = self.children[self.kept[tree_index[rows[0]]]]
+            out[rows] = np.broadcast_to(child.sdf(x[idx], y[idx], z[idx]), idx.shape)
+        return out
