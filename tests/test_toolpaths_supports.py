@@ -128,3 +128,38 @@ def test_support_prints_in_the_current_state_or_its_own(tmp_path):
     assert support.any() and (program.color_of_moves()[support] == 1).all()
     with pytest.raises(FgsliceError, match="support_state"):
         _share(tmp_path, t, "Tstate", support="true", support_state=5)
+
+
+def _support_moves(program):
+    roles = np.array(program.roles + [""], dtype=object)[program.role]
+    printing = (program.e > 0) & (program.length > 0)
+    support = np.isin(roles, SUPPORT_ROLES) & printing
+    return program.end[support], program.end[~support & printing & (program.layer >= 1)]  # part: above the skirt
+
+
+def test_support_bodies_of_the_design_enforce_and_block_support(tmp_path):
+    settings = load_settings(None, {"colors": "1", "support": "true"})
+    cx, cy = settings.bed_x / 2, settings.bed_y / 2
+    column = 'translate(0,0,4) { rectprism(4, 6, 8, "blue"); }'
+    # a vertical column overhangs nowhere; a support body beside it asks for support there
+    plain = tmp_path / "column.gcode"
+    slice_to_gcode(parse_design(f"union() {{ {column} }}"), settings, plain, jobs=1)
+    assert not len(_support_moves(read_gcode(plain))[0])
+    enforced = tmp_path / "enforced.gcode"
+    design = parse_design(f'union() {{ {column} translate(6,0,4) {{ rectprism(4, 6, 8, "support"); }} }}')
+    result = slice_to_gcode(design, settings, enforced, jobs=1)
+    assert result.stats["support_mm3"] > 0
+    support, part = _support_moves(read_gcode(enforced))
+    x = support[:, 0] - cx
+    assert len(x) and (x > 2 + settings.support_xy_gap).all() and (x < 8 + settings.bead_width).all()
+    assert np.abs(support[:, 1] - cy).max() < 3 + settings.bead_width
+    assert (np.abs(part[:, 0] - cx) < 2 + settings.bead_width).all()  # the body itself is not printed as part
+    # a blocker over the T's right arm: support under the left arm only
+    blocked = tmp_path / "blocked.gcode"
+    t = 'union() { translate(0,0,4) { rectprism(4, 6, 8, "blue"); } translate(0,0,9) { rectprism(20, 6, 2, "blue"); } }'
+    design = parse_design(f'union() {{ {t} translate(7,0,5) {{ rectprism(10, 10, 12, "support_blocker"); }} }}')
+    slice_to_gcode(design, settings, blocked, jobs=1)
+    support, _ = _support_moves(read_gcode(blocked))
+    assert len(support) and (support[:, 0] - cx < 2).all()  # the right arm spans x 2..10
+    with pytest.raises(FgsliceError, match="only support bodies"):
+        slice_to_gcode(parse_design('rectprism(4, 4, 4, "support");'), settings, tmp_path / "none.gcode", jobs=1)

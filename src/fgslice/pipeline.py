@@ -40,6 +40,7 @@ import shapely
 from fgslice.coverage import check_coverage, mesh_warnings, part_volume
 from fgslice.design.base import Design
 from fgslice.design.color_mix import mix_colors
+from fgslice.design.support_bodies import split_support_bodies
 from fgslice.errors import FgsliceError, SliceError
 from fgslice.executor import Consumer, default_jobs, map_ordered
 from fgslice.guards import check_resources
@@ -191,6 +192,15 @@ def _section_task(job: SliceJob, indices: Sequence[int]) -> list[shapely.Geometr
         sections = job.design.sections([job.layers[i][1] - job.layers[i][2] / 2 - oz for i in indices])
         shifted = shapely.transform(np.array(sections, dtype=object), lambda c: c + np.array([ox, oy]))
         return list(polygonal_each(simplify_outline(polygonal_each(shifted), job.settings.gcode_resolution)))
+
+
+def _body_outlines(job: SliceJob, body) -> list[shapely.Geometry] | None:
+    """Every layer's section of a support body (bed frame), or None without one."""
+    if body is None:
+        return None
+    ox, oy, oz = job.placement.offset
+    sections = body.sections([z_top - height / 2 - oz for _, z_top, height in job.layers])
+    return list(shapely.transform(np.array(sections, dtype=object), lambda c: c + np.array([ox, oy])))
 
 
 def _plane_task(job: SliceJob, indices: Sequence[int]) -> list[shapely.Geometry]:
@@ -368,7 +378,8 @@ def slice_to_gcode(
     """
     started = time.perf_counter()
     jobs = default_jobs() if jobs is None else max(1, jobs)
-    design = mix_colors(design, settings)
+    bodies = split_support_bodies(design)
+    design = mix_colors(bodies.part, settings)
     attributes = checked_attributes(design, settings)
     levels = state_levels(attributes.ranges, attributes.cover, settings) if attributes is not None else None
     palette = make_palette(len(design.materials), settings.colors, settings.palette, levels)
@@ -398,7 +409,8 @@ def slice_to_gcode(
             job.sections = list(itertools.chain.from_iterable(
                 map_ordered(_plane_task, job, batches, jobs=jobs, scheduler=scheduler, probe=True)))
         if settings.support:
-            job.supports = plan_supports(job.outlines, settings)
+            job.supports = plan_supports(job.outlines, settings, _body_outlines(job, bodies.enforcers),
+                                         _body_outlines(job, bodies.blockers))
         if callable(thumbnails):
             render = _thumbnail_render(job, thumbnails)
             thumbnails = _start_thumbnails(render, cleanup) if jobs > 1 or scheduler else tuple(render())

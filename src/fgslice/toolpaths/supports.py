@@ -8,7 +8,8 @@ Regions (:func:`plan_supports`, for the whole print, top layer down; bed frame, 
    Cura's overhang angle: a wall leaning further out than that from one layer to the next
    needs support), opened by :data:`SLIVER_MM` so that the slivers of a wall leaning
    exactly at the angle are dropped, pieces under ``w^2`` dropped; the enforcers of the design
-   (where its ``support`` material wins) are added. Each overhang is smoothed by a
+   (its ``support`` bodies, :mod:`fgslice.design.support_bodies`) are added and its
+   blockers (``support_blocker`` bodies) taken away. Each overhang is smoothed by a
    closing of :data:`CLOSING_MM` (bits a few mm apart become one area, as PrusaSlicer's
    closing radius) and grown by ``w / 2 + support_expansion`` (the beads along its edge
    lie on support, and the support's footing is wider than the overhang, as PrusaSlicer's
@@ -21,7 +22,8 @@ Regions (:func:`plan_supports`, for the whole print, top layer down; bed frame, 
    support only stands on the bed, so a column that meets the part on its way down is
    dropped whole (the region minus every layer's outline at or below ``j``, grown by the
    gap); ``support_to = part``: it may also stand on the part, ``bottom`` layers
-   (``support_bottom_z_gap``) above its surface.
+   (``support_bottom_z_gap``) above its surface. A blocker removes support from its
+   own layers (the column goes on below it).
 3. **Interface.** Of each layer's support, what is not support on every one of the
    ``support_interface_layers`` layers above it is interface (the top of each column).
 
@@ -77,9 +79,10 @@ def _layers(value: float, h: float) -> int:
     return int(round(value / h))
 
 
-def overhangs(outlines: list[shapely.Geometry], settings: Settings) -> np.ndarray:
+def overhangs(outlines: list[shapely.Geometry], settings: Settings,
+              blockers: list[shapely.Geometry] | None = None) -> np.ndarray:
     """Per layer, the area that needs support under it (empty on layer 0), smoothed and
-    grown as the module says."""
+    grown as the module says; overhangs within ``blockers`` (per layer) need none."""
     w, h = settings.bead_width, settings.layer_height
     n = len(outlines)
     out = np.full(n, shapely.Polygon(), dtype=object)
@@ -88,6 +91,8 @@ def overhangs(outlines: list[shapely.Geometry], settings: Settings) -> np.ndarra
     reach = h * math.tan(math.radians(settings.support_angle))
     lower = shapely.buffer(np.asarray(outlines[:-1], dtype=object), reach, join_style="mitre", mitre_limit=3.0)
     raw = shapely.difference(np.asarray(outlines[1:], dtype=object), lower)
+    if blockers is not None:
+        raw = shapely.difference(raw, np.asarray(blockers[1:], dtype=object))
     raw = opening(raw, SLIVER_MM)
     parts, owner = shapely.get_parts(raw, return_index=True)
     big = shapely.area(parts) >= w * w
@@ -104,17 +109,21 @@ def overhangs(outlines: list[shapely.Geometry], settings: Settings) -> np.ndarra
 
 
 def plan_supports(outlines: list[shapely.Geometry], settings: Settings,
-                  enforcers: list[shapely.Geometry] | None = None) -> list[SupportLayer]:
+                  enforcers: list[shapely.Geometry] | None = None,
+                  blockers: list[shapely.Geometry] | None = None) -> list[SupportLayer]:
     """Every layer's support regions (see the module); ``enforcers``: per layer, areas
-    that get support whether they overhang or not (bed frame), or None."""
+    that get support whether they overhang or not; ``blockers``: per layer, areas kept
+    free of support (bed frame; None: none)."""
     n = len(outlines)
     w, h = settings.bead_width, settings.layer_height
     empty = shapely.Polygon()
     if n == 0:
         return []
-    need = overhangs(outlines, settings)
+    need = overhangs(outlines, settings, blockers)
     if enforcers is not None:
         need = shapely.union(need, np.asarray(enforcers, dtype=object))
+    if blockers is not None:
+        need = shapely.difference(need, np.asarray(blockers, dtype=object))
     top, bottom = _layers(settings.support_top_z_gap, h), _layers(settings.support_bottom_z_gap, h)
     keep_out = shapely.buffer(np.asarray(outlines, dtype=object), settings.support_xy_gap + w / 2,
                               join_style="mitre", mitre_limit=3.0)
@@ -136,7 +145,7 @@ def plan_supports(outlines: list[shapely.Geometry], settings: Settings,
         else:
             carried = shapely.difference(carried, shapely.union_all(keep_out[max(0, j - bottom) : j + 1]))
         carried = _without_crumbs(carried, w)
-        regions[j] = carried
+        regions[j] = carried if blockers is None else _without_crumbs(shapely.difference(carried, blockers[j]), w)
     layers = []
     for j in range(n):
         above = regions[j + 1 : j + 1 + settings.support_interface_layers]
