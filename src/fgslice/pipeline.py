@@ -245,10 +245,10 @@ def _layer_result(job: SliceJob, index: int) -> LayerResult:
     support = support_paths(job.supports[index], s) if job.supports else []
     paths.paths += support
     if index == 0:
-        first = brim_area(regions.outline, s)
+        footprint = regions.outline  # the brim goes around the part and the support standing on the bed
         if support:
-            first = shapely.union_all([first, job.supports[0].body, job.supports[0].interface])
-        paths.paths = skirt_paths(first, s) + brim_paths(regions.outline, s) + paths.paths
+            footprint = shapely.union_all([footprint, job.supports[0].body, job.supports[0].interface])
+        paths.paths = skirt_paths(brim_area(footprint, s), s) + brim_paths(footprint, s) + paths.paths
     colors = len({p.color for p in paths.paths if p.color >= 0})
     paths.paths = place_seams(paths.paths, s.seam_position, i)
     plan = order_layer(paths, job.palette.order_for_layer(i), job.start_xy, s.feature_order,
