@@ -104,6 +104,7 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     support_spacing: Annotated[float, Meta(gt=0, le=50, description="distance between support lines, mm")] = 2.0
     support_interface_spacing: Annotated[float, Meta(gt=0, le=50, description="distance between support interface lines, mm")] = 0.6
     support_state: Annotated[int | Literal["current"], Meta(description="palette color support is printed in, or 'current': whatever state the nozzle is in (no state change, no purge)")] = "current"
+    dont_support_bridges: Annotated[bool, Meta(description="no support under overhangs that lines across land on the layer below at both ends (bridges), as PrusaSlicer's")] = True
 
     # -- purge and dead volume -------------------------------------------------------
     purge: Annotated[bool, Meta(description="strategy 1 purge tower on state changes")] = True
