@@ -69,6 +69,7 @@ from fgslice.slicing.states import StatePalette, field_for, make_palette, materi
 from fgslice.toolpaths import strategy1, strategy2
 from fgslice.toolpaths.fuzzy_skin import FuzzySkin
 from fgslice.toolpaths.paths import Path, Role
+from fgslice.toolpaths.bridges import face_bridges
 from fgslice.toolpaths.brim import brim_area, brim_paths
 from fgslice.toolpaths.seams import place_seams
 from fgslice.toolpaths.skirt import skirt_paths
@@ -203,6 +204,18 @@ def _body_outlines(job: SliceJob, body) -> list[shapely.Geometry] | None:
     return list(shapely.transform(np.array(sections, dtype=object), lambda c: c + np.array([ox, oy])))
 
 
+def _below_outline(job: SliceJob, index: int) -> shapely.Geometry | None:
+    """Strategy 2: the bed-frame outline of the layer under layer ``index`` (None for the first)."""
+    if index == 0:
+        return None
+    if job.outlines:
+        return job.outlines[index - 1]
+    ox, oy, oz = job.placement.offset
+    _, z_top, height = job.layers[index - 1]
+    section = job.sections[index - 1] if job.sections else job.design.section(z_top - height / 2 - oz)
+    return shapely.transform(section, lambda c: c + np.array([ox, oy]))
+
+
 def _plane_task(job: SliceJob, indices: Sequence[int]) -> list[shapely.Geometry]:
     """Strategy 2, a design holding meshes: the sections of some layers (design frame)."""
     oz = job.placement.offset[2]
@@ -226,11 +239,14 @@ def _layer_result(job: SliceJob, index: int) -> LayerResult:
     if s.strategy == 2:
         regions = slice_layer(job.design, job.placement, job.palette, i, z_top, height, s,
                               section=job.sections[index] if job.sections else None)
+        bridges = face_bridges(regions.outline, _below_outline(job, index), s)
+        if not bridges.is_empty:  # the repeated layers' plans hold no bridges
+            repeats = None
         repeated = repeats.find(regions) if repeats is not None else None
         if repeated is not None:
             plan, result = repeated
             return dataclasses.replace(result, plan=plan)
-        paths = strategy2.layer_paths(regions, s)
+        paths = strategy2.layer_paths(regions, s, bridges)
         short = None
     else:
         outline = job.outlines[index]
