@@ -400,7 +400,7 @@ def test_an_internal_error_on_a_layer_names_it_and_keeps_the_old_output(tmp_path
     design.write_text(BOX)
     out.write_text(OLD)
 
-    def broken(regions, settings):
+    def broken(regions, settings, bridges=None):
         if regions.index == 0:  # (later layers may repeat earlier ones without new paths)
             raise ValueError("no usable geometry")
         return strategy2_layer_paths(regions, settings)

@@ -70,3 +70,24 @@ def test_brim_is_printed_on_layer_0_only_and_covers_its_width(tmp_path, width):
     volume = program.e[skirt][brim].sum() * np.pi * settings.filament_diameter**2 / 4
     assert volume == pytest.approx(ring_area * settings.layer_height, rel=0.03)
     assert shapely.distance(shapely.points(mid[brim]), islands).max() <= extent
+
+
+def test_brim_surrounds_the_support_standing_on_the_bed(tmp_path):
+    # a T: its stem alone touches the bed, the support under its arms stands beside it
+    t = "union() { translate(0,0,4) { rectprism(4, 6, 8); } translate(0,0,9) { rectprism(20, 6, 2); } }"
+    settings = load_settings(None, {"colors": "1", "support": "true", "brim_width": "3", "skirt_loops": "0"})
+    out = tmp_path / "t.gcode"
+    slice_to_gcode(parse_design(t), settings, out, jobs=1)
+    program = read_gcode(out)
+    roles = np.array(program.roles + [""], dtype=object)[program.role]
+    first = (program.e > 0) & (program.length > 0) & (program.layer == 0)
+    brim = program.end[first & (roles == "Skirt/Brim")][:, :2]
+    support = program.end[first & np.isin(roles, ["Support material", "Support material interface"])][:, :2]
+    stem = program.end[first & ~np.isin(roles, ["Skirt/Brim", "Support material", "Support material interface"])][:, :2]
+    assert len(support) and len(brim)
+    assert np.ptp(support[:, 0]) > 2 * np.ptp(stem[:, 0])  # the support reaches far beyond the stem
+    hull = shapely.MultiPoint(brim).convex_hull
+    assert shapely.contains_xy(hull, support[:, 0], support[:, 1]).all()
+    footprint = shapely.MultiPoint(support).buffer(settings.bead_width)
+    assert shapely.distance(shapely.MultiPoint(brim), footprint) < settings.bead_width
+    assert (program.layer[(program.e > 0) & (roles == "Skirt/Brim")] == 0).all()

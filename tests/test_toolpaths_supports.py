@@ -51,7 +51,7 @@ def test_t_gets_support_under_its_arms_with_gaps_and_interface():
     assert wider[3].body.area > layers[3].body.area + 2 * 2 * 6  # grown 2 mm around the arms' shadow
     lines = support_paths(layers[3], settings)
     assert lines and all(p.role is Role.SUPPORT and p.color == -1 for p in lines)
-    directions = np.concatenate([np.diff(p.points, axis=0) for p in lines])
+    directions = np.concatenate([np.diff(p.points, axis=0) for p in lines if not p.closed])  # lines, not the sheath
     along_x = np.abs(directions[:, 1]) < 1e-9
     assert np.abs(directions[along_x, 0]).sum() > 0.75 * np.hypot(*directions.T).sum()
 
@@ -93,7 +93,8 @@ def _share(tmp_path, text, name, strategy=1, **overrides):
 def test_supports_leave_under_half_a_percent_over_nothing(tmp_path, name):
     to = "part" if name == "wing in a box" else "bed"
     off, _, _ = _share(tmp_path, PARTS[name], name)
-    on, stats, program = _share(tmp_path, PARTS[name], name, support="true", support_to=to)
+    # bridges are left over air on purpose (dont_support_bridges): measured with support under them too
+    on, stats, program = _share(tmp_path, PARTS[name], name, support="true", support_to=to, dont_support_bridges="false")
     assert on < 0.005
     assert off > 2 * on
     roles = np.array(program.roles + [""], dtype=object)[program.role]
@@ -109,10 +110,13 @@ def test_strategy_2_supports_a_t(tmp_path):
 
 
 def test_benchy_supports(tmp_path, benchy_path):
+    # at half size: the same overhangs (angles keep under a uniform scaling; its cabin roof
+    # stands on the deck), a quarter of the area and half the layers
     design = tmp_path / "benchy.vcad"
-    design.write_text(f'mesh("{benchy_path}");')
+    design.write_text(f'scale(0.5, 0.5, 0.5) {{ mesh("{benchy_path}"); }}')
     off, _, _ = _share(tmp_path, design, "benchy", colors=1)
-    on, stats, _ = _share(tmp_path, design, "benchy", colors=1, support="true", support_to="part")
+    on, stats, _ = _share(tmp_path, design, "benchy", colors=1, support="true", support_to="part",
+                          dont_support_bridges="false")
     assert on < 0.005 and off > 2 * on
     assert stats["support_mm3"] > 0
 
@@ -128,3 +132,57 @@ def test_support_prints_in_the_current_state_or_its_own(tmp_path):
     assert support.any() and (program.color_of_moves()[support] == 1).all()
     with pytest.raises(FgsliceError, match="support_state"):
         _share(tmp_path, t, "Tstate", support="true", support_state=5)
+
+
+def _support_moves(program):
+    roles = np.array(program.roles + [""], dtype=object)[program.role]
+    printing = (program.e > 0) & (program.length > 0)
+    support = np.isin(roles, SUPPORT_ROLES) & printing
+    return program.end[support], program.end[~support & printing & (program.layer >= 1)]  # part: above the skirt
+
+
+def test_support_bodies_of_the_design_enforce_and_block_support(tmp_path):
+    settings = load_settings(None, {"colors": "1", "support": "true"})
+    cx, cy = settings.bed_x / 2, settings.bed_y / 2
+    column = 'translate(0,0,4) { rectprism(4, 6, 8, "blue"); }'
+    # a vertical column overhangs nowhere; a support body beside it asks for support there
+    plain = tmp_path / "column.gcode"
+    slice_to_gcode(parse_design(f"union() {{ {column} }}"), settings, plain, jobs=1)
+    assert not len(_support_moves(read_gcode(plain))[0])
+    enforced = tmp_path / "enforced.gcode"
+    design = parse_design(f'union() {{ {column} translate(6,0,4) {{ rectprism(4, 6, 8, "support"); }} }}')
+    result = slice_to_gcode(design, settings, enforced, jobs=1)
+    assert result.stats["support_mm3"] > 0
+    support, part = _support_moves(read_gcode(enforced))
+    x = support[:, 0] - cx
+    assert len(x) and (x > 2 + settings.support_xy_gap).all() and (x < 8 + settings.bead_width).all()
+    assert np.abs(support[:, 1] - cy).max() < 3 + settings.bead_width
+    assert (np.abs(part[:, 0] - cx) < 2 + settings.bead_width).all()  # the body itself is not printed as part
+    # a blocker over the T's right arm: support under the left arm only
+    blocked = tmp_path / "blocked.gcode"
+    t = 'union() { translate(0,0,4) { rectprism(4, 6, 8, "blue"); } translate(0,0,9) { rectprism(20, 6, 2, "blue"); } }'
+    design = parse_design(f'union() {{ {t} translate(7,0,5) {{ rectprism(10, 10, 12, "support_blocker"); }} }}')
+    slice_to_gcode(design, settings, blocked, jobs=1)
+    support, _ = _support_moves(read_gcode(blocked))
+    assert len(support) and (support[:, 0] - cx < 2).all()  # the right arm spans x 2..10
+    with pytest.raises(FgsliceError, match="only support bodies"):
+        slice_to_gcode(parse_design('rectprism(4, 4, 4, "support");'), settings, tmp_path / "none.gcode", jobs=1)
+
+
+def test_bridges_get_no_support_unless_asked(tmp_path):
+    # a block with a 6 mm channel through it: its roof is a bridge anchored on both walls
+    channel = ('translate(0, 0, 2) { difference() { rectprism(24, 12, 4, "blue"); '
+               'translate(0, 0, -1) { rectprism(30, 6, 2, "blue"); } } }')
+    volumes = {}
+    for flag in ("true", "false"):
+        settings = load_settings(None, {"colors": "1", "support": "true", "dont_support_bridges": flag})
+        out = tmp_path / f"channel_{flag}.gcode"
+        volumes[flag] = slice_to_gcode(parse_design(channel), settings, out, jobs=1).stats["support_mm3"]
+        support, _ = _support_moves(read_gcode(out))
+        # under the roof's middle, away from the channel's open ends where its walls overhang
+        middle = (np.abs(support[:, 0] - settings.bed_x / 2) < 8) & (np.abs(support[:, 1] - settings.bed_y / 2) < 3)
+        assert middle.any() == (flag == "false")
+    assert volumes["true"] < 0.8 * volumes["false"]
+    # a cantilever is no bridge: the T's arms keep their support
+    t = plan_supports(_t_outlines(), Settings(support=True, dont_support_bridges=True))
+    assert not t[5].empty

@@ -42,6 +42,7 @@ from fgslice.design.fingerprint import fingerprint
 from fgslice.design.base import Design
 from fgslice.design.color_mix import mix_colors
 from fgslice.design.lattice_widths import check_lattice_widths
+from fgslice.design.support_bodies import split_support_bodies
 from fgslice.errors import FgsliceError, SliceError
 from fgslice.executor import Consumer, default_jobs, map_ordered
 from fgslice.guards import check_resources
@@ -72,6 +73,7 @@ from fgslice.slicing.states import StatePalette, field_for, make_palette, materi
 from fgslice.toolpaths import strategy1, strategy2
 from fgslice.toolpaths.fuzzy_skin import FuzzySkin
 from fgslice.toolpaths.paths import Path, Role
+from fgslice.toolpaths.bridges import face_bridges
 from fgslice.toolpaths.brim import brim_area, brim_paths
 from fgslice.toolpaths.seams import place_seams
 from fgslice.toolpaths.skirt import skirt_paths
@@ -197,6 +199,27 @@ def _section_task(job: SliceJob, indices: Sequence[int]) -> list[shapely.Geometr
         return list(polygonal_each(simplify_outline(polygonal_each(shifted), job.settings.gcode_resolution)))
 
 
+def _body_outlines(job: SliceJob, body) -> list[shapely.Geometry] | None:
+    """Every layer's section of a support body (bed frame), or None without one."""
+    if body is None:
+        return None
+    ox, oy, oz = job.placement.offset
+    sections = body.sections([z_top - height / 2 - oz for _, z_top, height in job.layers])
+    return list(shapely.transform(np.array(sections, dtype=object), lambda c: c + np.array([ox, oy])))
+
+
+def _below_outline(job: SliceJob, index: int) -> shapely.Geometry | None:
+    """Strategy 2: the bed-frame outline of the layer under layer ``index`` (None for the first)."""
+    if index == 0:
+        return None
+    if job.outlines:
+        return job.outlines[index - 1]
+    ox, oy, oz = job.placement.offset
+    _, z_top, height = job.layers[index - 1]
+    section = job.sections[index - 1] if job.sections else job.design.section(z_top - height / 2 - oz)
+    return shapely.transform(section, lambda c: c + np.array([ox, oy]))
+
+
 def _plane_task(job: SliceJob, indices: Sequence[int]) -> list[shapely.Geometry]:
     """Strategy 2, a design holding meshes: the sections of some layers (design frame)."""
     oz = job.placement.offset[2]
@@ -220,11 +243,14 @@ def _layer_result(job: SliceJob, index: int) -> LayerResult:
     if s.strategy == 2:
         regions = slice_layer(job.design, job.placement, job.palette, i, z_top, height, s,
                               section=job.sections[index] if job.sections else None)
+        bridges = face_bridges(regions.outline, _below_outline(job, index), s)
+        if not bridges.is_empty:  # the repeated layers' plans hold no bridges
+            repeats = None
         repeated = repeats.find(regions) if repeats is not None else None
         if repeated is not None:
             plan, result = repeated
             return dataclasses.replace(result, plan=plan)
-        paths = strategy2.layer_paths(regions, s)
+        paths = strategy2.layer_paths(regions, s, bridges)
         short = None
     else:
         outline = job.outlines[index]
@@ -239,10 +265,10 @@ def _layer_result(job: SliceJob, index: int) -> LayerResult:
     support = support_paths(job.supports[index], s) if job.supports else []
     paths.paths += support
     if index == 0:
-        first = brim_area(regions.outline, s)
+        footprint = regions.outline  # the brim goes around the part and the support standing on the bed
         if support:
-            first = shapely.union_all([first, job.supports[0].body, job.supports[0].interface])
-        paths.paths = skirt_paths(first, s) + brim_paths(regions.outline, s) + paths.paths
+            footprint = shapely.union_all([footprint, job.supports[0].body, job.supports[0].interface])
+        paths.paths = skirt_paths(brim_area(footprint, s), s) + brim_paths(footprint, s) + paths.paths
     colors = len({p.color for p in paths.paths if p.color >= 0})
     paths.paths = place_seams(paths.paths, s.seam_position, i)
     plan = order_layer(paths, job.palette.order_for_layer(i), job.start_xy, s.feature_order,
@@ -373,7 +399,8 @@ def slice_to_gcode(
     started = time.perf_counter()
     jobs = default_jobs() if jobs is None else max(1, jobs)
     design_fingerprint = fingerprint(design)  # of the design as given: simulate compares it
-    design = mix_colors(design, settings)
+    bodies = split_support_bodies(design)
+    design = mix_colors(bodies.part, settings)
     attributes = checked_attributes(design, settings)
     levels = state_levels(attributes.ranges, attributes.cover, settings) if attributes is not None else None
     palette = make_palette(len(design.materials), settings.colors, settings.palette, levels)
@@ -405,7 +432,8 @@ def slice_to_gcode(
             job.sections = list(itertools.chain.from_iterable(
                 map_ordered(_plane_task, job, batches, jobs=jobs, scheduler=scheduler, probe=True)))
         if settings.support:
-            job.supports = plan_supports(job.outlines, settings)
+            job.supports = plan_supports(job.outlines, settings, _body_outlines(job, bodies.enforcers),
+                                         _body_outlines(job, bodies.blockers))
         if callable(thumbnails):
             render = _thumbnail_render(job, thumbnails)
             thumbnails = _start_thumbnails(render, cleanup) if jobs > 1 or scheduler else tuple(render())

@@ -75,7 +75,7 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     infill_pattern: Annotated[Literal["rectilinear", "concentric"], Meta(description="strategy 1 sparse infill pattern")] = "rectilinear"
     infill_angle: Annotated[float, Meta(ge=-360, le=360, description="direction of rectilinear lines on even layers, degrees")] = 45.0
     seam_position: Annotated[Literal["nearest", "aligned", "rear", "random"], Meta(description="where closed loops (walls, concentric loops, skirt, brim) start: nearest the nozzle, at the sharpest corner, rearmost, or at random")] = "nearest"
-    bridge_flow: Annotated[float, Meta(ge=10, le=200, description="strategy 1: bridge lines extrude this percent of a bead's volume")] = 100.0
+    bridge_flow: Annotated[float, Meta(ge=10, le=200, description="bridge lines extrude this percent of a bead's volume")] = 100.0
     feature_order: Annotated[Literal["walls_first", "infill_first"], Meta(description="within a color, strategy 1")] = "walls_first"
     min_segment_mm: Annotated[float, Meta(ge=0, le=1000, description="strategy 1 warns when color pieces are shorter, mm")] = 5.0
     zipper: Annotated[float, Meta(ge=0, le=100, description="zipper overlap band beta, percent of the gradient range")] = 0.0
@@ -105,6 +105,7 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     support_spacing: Annotated[float, Meta(gt=0, le=50, description="distance between support lines, mm")] = 2.0
     support_interface_spacing: Annotated[float, Meta(gt=0, le=50, description="distance between support interface lines, mm")] = 0.6
     support_state: Annotated[int | Literal["current"], Meta(description="palette color support is printed in, or 'current': whatever state the nozzle is in (no state change, no purge)")] = "current"
+    dont_support_bridges: Annotated[bool, Meta(description="no support under overhangs that lines across land on the layer below at both ends (bridges), as PrusaSlicer's")] = True
 
     # -- purge and dead volume -------------------------------------------------------
     purge: Annotated[bool, Meta(description="strategy 1 purge tower on state changes")] = True

@@ -12,6 +12,10 @@ infill``), printed at ``bridge_speed`` (:func:`fgslice.machine.gcode.role_speeds
 bead cross-section is ``bridge_flow`` percent of a bead's (the width that gives it, lines
 ``A' / h`` apart, so a bridge of area ``R`` still receives ``R h`` times the flow). Needs
 ``bottom_layers >= 1`` (the outline below is the nearest of the bottom-skin neighbours).
+
+Strategy 2 (:func:`face_bridges`): the area over air, grown onto its anchors, within the
+outline eroded by a bead, is cut out of the color faces and filled the same way, each
+face's share in the face's color; the rest of each face is filled densely as usual.
 """
 
 from __future__ import annotations
@@ -54,8 +58,10 @@ def span_angle(region) -> float:
     return math.degrees(math.atan2(short[1], short[0])) % 180.0
 
 
-def bridge_paths(bridges, settings: Settings) -> list[Path]:
-    """Lines across each bridge's shortest span (see the module), color 0 (cut into colors later)."""
+def bridge_paths(bridges, settings: Settings, faces=None) -> list[Path]:
+    """Lines across each bridge's shortest span (see the module), color 0 (cut into colors
+    later); with ``faces`` (one per palette color, strategy 2), each face's share of a
+    bridge gets that bridge's lines in the face's color."""
     if bridges.is_empty:
         return []
     w, h = settings.bead_width, settings.layer_height
@@ -65,6 +71,26 @@ def bridge_paths(bridges, settings: Settings) -> list[Path]:
     for part in shapely.get_parts(bridges):
         if part.area < w * w:
             continue
-        points, chain, _ = line_fill(part, area / h, span_angle(part), width)
-        out += open_paths(points, chain, Role.BRIDGE_INFILL, 0, width, h)
+        angle = span_angle(part)
+        pieces = [(0, part)] if faces is None else [(c, shapely.intersection(part, f)) for c, f in enumerate(faces)]
+        for color, piece in pieces:
+            if piece.area < w * w:
+                continue
+            points, chain, _ = line_fill(piece, area / h, angle, width)
+            out += open_paths(points, chain, Role.BRIDGE_INFILL, color, width, h)
     return out
+
+
+def face_bridges(outline, below, settings: Settings) -> shapely.Geometry:
+    """Strategy 2: the layer's area over air (``outline`` minus ``below``, the outline of
+    the layer under it; None on the first layer), less what is narrower than a bead,
+    grown :data:`ANCHOR_BEADS` beads onto what carries it, within the outline eroded by a
+    bead (the outermost loop still runs along the surface)."""
+    if below is None:
+        return shapely.Polygon()
+    w = settings.bead_width
+    over_air = opening(shapely.difference(outline, below), w / 2)
+    if over_air.is_empty:
+        return over_air
+    inside = shapely.buffer(outline, -w, join_style="mitre")
+    return shapely.intersection(shapely.buffer(over_air, ANCHOR_BEADS * w, join_style="mitre"), inside)

@@ -19,10 +19,13 @@ are returned. Parts of a face narrower than a bead are first given to a neighbou
 color (:func:`~fgslice.toolpaths.slivers.give_slivers`, area in
 ``LayerPaths.reassigned_mm2``); what is still narrower than a bead after that (a part
 of the outline itself thinner than a bead) is not printed, its area is reported in
-``LayerPaths.uncovered_mm2``.
+``LayerPaths.uncovered_mm2``. Areas over air are cut out of the faces first and filled
+with bridge lines across their short span (:mod:`~fgslice.toolpaths.bridges`).
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 import shapely
@@ -30,8 +33,9 @@ import shapely
 from fgslice.settings import Settings
 from fgslice.slicing.layers import LayerRegions
 from fgslice.slicing.regions import SECTION_TOLERANCE
+from fgslice.toolpaths.bridges import bridge_paths
 from fgslice.toolpaths.infill import dense_levels, solid_fill, uncovered_area
-from fgslice.toolpaths.paths import LayerPaths, Role
+from fgslice.toolpaths.paths import LayerPaths, Path, Role
 from fgslice.toolpaths.simplify import simplify_paths, simplify_polygons
 from fgslice.toolpaths.slivers import MIN_SLIVER_AREA, give_slivers
 from fgslice.toolpaths.walls import bead_spacing, offset_polygons
@@ -42,13 +46,20 @@ SURFACE_TOLERANCE = 0.05
 boundary lies along the part surface (role EXTERNAL_PERIMETER)."""
 
 
-def layer_paths(regions: LayerRegions, settings: Settings) -> LayerPaths:
-    """Dense toolpaths of every color face of one layer (colors = face indices)."""
+def layer_paths(regions: LayerRegions, settings: Settings, bridges=None) -> LayerPaths:
+    """Dense toolpaths of every color face of one layer (colors = face indices);
+    ``bridges``: the layer's area over air (:func:`~fgslice.toolpaths.bridges.face_bridges`),
+    filled with bridge lines, or None."""
     w, h = settings.bead_width, settings.layer_height
     s = bead_spacing(w, h)
     out = LayerPaths(regions.index, regions.z, regions.height)
     if len(regions.faces) == 0:
         return out
+    bridged: list[Path] = []
+    if bridges is not None and not bridges.is_empty:
+        bridged = bridge_paths(bridges, settings, faces=regions.faces)
+        regions = dataclasses.replace(
+            regions, faces=tuple(shapely.difference(np.asarray(regions.faces, dtype=object), bridges)))
     faces, parts, owner, eroded, exact = _eroded_faces(regions.faces, settings)
     # a polygon offset vertex by vertex comes back whole when dilated: nothing uncovered
     uncovered = uncovered_area(parts[~exact], w, eroded=eroded[~exact])
@@ -64,6 +75,7 @@ def layer_paths(regions: LayerRegions, settings: Settings) -> LayerPaths:
     if settings.fill_pattern == "rectilinear":
         angle = settings.infill_angle + 90.0 * (regions.index % 2)
         out.paths += solid_fill(loops.rest, angle, w, h, Role.SOLID_INFILL, loops.rest_region)
+    out.paths += bridged
     return out
 
 

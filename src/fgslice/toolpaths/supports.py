@@ -7,12 +7,20 @@ Regions (:func:`plan_supports`, for the whole print, top layer down; bed frame, 
    ``k - 1`` grown by ``h tan(support_angle)`` (``support_angle`` from the vertical, as
    Cura's overhang angle: a wall leaning further out than that from one layer to the next
    needs support), opened by :data:`SLIVER_MM` so that the slivers of a wall leaning
-   exactly at the angle are dropped, pieces under ``w^2`` dropped; the enforcers of the design
-   (where its ``support`` material wins) are added. Each overhang is smoothed by a
+   exactly at the angle are dropped, pieces under ``w^2`` dropped, and with
+   ``dont_support_bridges`` the pieces a bridge spans (:mod:`.bridgeable`) keep only
+   their edge along the outline, where the walls run (``walls`` beads wide, at least
+   one), grown by :data:`BRIDGE_EDGE_MM` instead of the expansion below, and pieces
+   within that edge alone (bridged walls) need none: as PrusaSlicer supports the
+   unanchored edges of bridged infill only; the enforcers of the design
+   (its ``support`` bodies, :mod:`fgslice.design.support_bodies`) are added and its
+   blockers (``support_blocker`` bodies) taken away. Each overhang is smoothed by a
    closing of :data:`CLOSING_MM` (bits a few mm apart become one area, as PrusaSlicer's
    closing radius) and grown by ``w / 2 + support_expansion`` (the beads along its edge
    lie on support, and the support's footing is wider than the overhang, as PrusaSlicer's
-   support, whose areas it snaps outward to its line grid).
+   support, whose areas it snaps outward to its line grid); of the grown area, only what
+   the part of the layer below (grown by the XY gap) does not cut off from the overhang
+   is kept: the footing does not reach through a wall to its far side.
 2. **Projection.** The support of layer ``j`` is that of layer ``j + 1`` plus the
    overhangs of layer ``j + 1 + top`` (``top`` = ``support_top_z_gap`` in whole layers: the
    support's top stays that far below the surface it holds), minus the part grown by
@@ -21,7 +29,8 @@ Regions (:func:`plan_supports`, for the whole print, top layer down; bed frame, 
    support only stands on the bed, so a column that meets the part on its way down is
    dropped whole (the region minus every layer's outline at or below ``j``, grown by the
    gap); ``support_to = part``: it may also stand on the part, ``bottom`` layers
-   (``support_bottom_z_gap``) above its surface.
+   (``support_bottom_z_gap``) above its surface. A blocker removes support from its
+   own layers (the column goes on below it).
 3. **Interface.** Of each layer's support, what is not support on every one of the
    ``support_interface_layers`` layers above it is interface (the top of each column).
 
@@ -44,6 +53,7 @@ import shapely
 
 from fgslice.errors import SettingsError
 from fgslice.settings import Settings
+from fgslice.toolpaths.bridgeable import bridgeable
 from fgslice.toolpaths.infill import line_fill, open_paths
 from fgslice.toolpaths.paths import Path, Role, bead_area
 from fgslice.toolpaths.walls import bead_spacing, opening, ring_groups, split_rings
@@ -54,6 +64,10 @@ leaves is rounding, not overhang."""
 
 CLOSING_MM = 2.0
 """Closing radius that smooths each overhang's support area, mm."""
+
+BRIDGE_EDGE_MM = 1.5
+"""How far (at most ``support_expansion``) the support of a bridge's unanchored edge
+reaches beyond it, mm: PrusaSlicer's support margin."""
 
 CURRENT_STATE = -1
 """Support color with ``support_state = current``: printed in whatever state is current."""
@@ -77,9 +91,10 @@ def _layers(value: float, h: float) -> int:
     return int(round(value / h))
 
 
-def overhangs(outlines: list[shapely.Geometry], settings: Settings) -> np.ndarray:
+def overhangs(outlines: list[shapely.Geometry], settings: Settings,
+              blockers: list[shapely.Geometry] | None = None) -> np.ndarray:
     """Per layer, the area that needs support under it (empty on layer 0), smoothed and
-    grown as the module says."""
+    grown as the module says; overhangs within ``blockers`` (per layer) need none."""
     w, h = settings.bead_width, settings.layer_height
     n = len(outlines)
     out = np.full(n, shapely.Polygon(), dtype=object)
@@ -88,33 +103,58 @@ def overhangs(outlines: list[shapely.Geometry], settings: Settings) -> np.ndarra
     reach = h * math.tan(math.radians(settings.support_angle))
     lower = shapely.buffer(np.asarray(outlines[:-1], dtype=object), reach, join_style="mitre", mitre_limit=3.0)
     raw = shapely.difference(np.asarray(outlines[1:], dtype=object), lower)
+    if blockers is not None:
+        raw = shapely.difference(raw, np.asarray(blockers[1:], dtype=object))
     raw = opening(raw, SLIVER_MM)
     parts, owner = shapely.get_parts(raw, return_index=True)
     big = shapely.area(parts) >= w * w
-    if not big.any():
-        return out
+    edges = np.full(n - 1, shapely.Polygon(), dtype=object)  # what bridges leave to support
+    if settings.dont_support_bridges:
+        band = max(settings.walls, 1) * bead_spacing(w, h)
+        for i in np.flatnonzero(big).tolist():
+            k = owner[i]
+            if bridgeable(parts[i], outlines[k], reach, w):
+                inner = shapely.buffer(outlines[k + 1], -band, join_style="mitre", mitre_limit=3.0)
+                if shapely.intersection(parts[i], inner).area >= w * w:  # bridged infill: its edges need support
+                    edges[k] = shapely.union(edges[k], _without_crumbs(shapely.difference(parts[i], inner), w))
+                big[i] = False
     merged = np.full(n - 1, shapely.Polygon(), dtype=object)
     for k in np.unique(owner[big]).tolist():
         merged[k] = shapely.union_all(parts[big & (owner == k)])
     smooth = shapely.buffer(shapely.buffer(merged, CLOSING_MM, join_style="mitre", mitre_limit=3.0), -CLOSING_MM,
                             join_style="mitre", mitre_limit=3.0)
-    grown = shapely.buffer(smooth, w / 2 + settings.support_expansion, join_style="mitre", mitre_limit=3.0)
-    out[1:] = np.where(shapely.is_empty(merged), merged, grown)
+    grown = shapely.union(
+        shapely.buffer(smooth, w / 2 + settings.support_expansion, join_style="mitre", mitre_limit=3.0),
+        shapely.buffer(edges, w / 2 + min(settings.support_expansion, BRIDGE_EDGE_MM), join_style="mitre",
+                       mitre_limit=3.0))
+    smooth = shapely.union(smooth, edges)
+    gap = settings.support_xy_gap + w / 2
+    for k in np.flatnonzero(~shapely.is_empty(smooth)).tolist():
+        # the footing spreads around the overhang, not through the part to its far side
+        pieces = shapely.get_parts(shapely.difference(grown[k], shapely.buffer(outlines[k], gap, join_style="mitre",
+                                                                                mitre_limit=3.0)))
+        near = shapely.buffer(smooth[k], gap + w, join_style="mitre", mitre_limit=3.0)
+        grown[k] = shapely.union_all(pieces[shapely.intersects(pieces, near)])
+    out[1:] = np.where(shapely.is_empty(smooth), smooth, grown)
     return out
 
 
 def plan_supports(outlines: list[shapely.Geometry], settings: Settings,
-                  enforcers: list[shapely.Geometry] | None = None) -> list[SupportLayer]:
+                  enforcers: list[shapely.Geometry] | None = None,
+                  blockers: list[shapely.Geometry] | None = None) -> list[SupportLayer]:
     """Every layer's support regions (see the module); ``enforcers``: per layer, areas
-    that get support whether they overhang or not (bed frame), or None."""
+    that get support whether they overhang or not; ``blockers``: per layer, areas kept
+    free of support (bed frame; None: none)."""
     n = len(outlines)
     w, h = settings.bead_width, settings.layer_height
     empty = shapely.Polygon()
     if n == 0:
         return []
-    need = overhangs(outlines, settings)
+    need = overhangs(outlines, settings, blockers)
     if enforcers is not None:
         need = shapely.union(need, np.asarray(enforcers, dtype=object))
+    if blockers is not None:
+        need = shapely.difference(need, np.asarray(blockers, dtype=object))
     top, bottom = _layers(settings.support_top_z_gap, h), _layers(settings.support_bottom_z_gap, h)
     keep_out = shapely.buffer(np.asarray(outlines, dtype=object), settings.support_xy_gap + w / 2,
                               join_style="mitre", mitre_limit=3.0)
@@ -136,7 +176,7 @@ def plan_supports(outlines: list[shapely.Geometry], settings: Settings,
         else:
             carried = shapely.difference(carried, shapely.union_all(keep_out[max(0, j - bottom) : j + 1]))
         carried = _without_crumbs(carried, w)
-        regions[j] = carried
+        regions[j] = carried if blockers is None else _without_crumbs(shapely.difference(carried, blockers[j]), w)
     layers = []
     for j in range(n):
         above = regions[j + 1 : j + 1 + settings.support_interface_layers]
