@@ -123,6 +123,8 @@ def test_a_compiler_names_the_design_it_compiles(tmp_path):
      r"MeshCompiler.write is not supported"),
     ("pv.SupportAnalyzerParallel(pv.Sphere(0, 0, 0, 5), pv.Vec3(1, 1, 1), 1).analyze()",
      r"pyvcad.SupportAnalyzerParallel is not supported by fgslice: it computes inkjet support material"),
+    ("pv.ConformalMap(pv.Sphere(0, 0, 0, 5), pv.Sphere(0, 0, 5, 1))",
+     r"pyvcad.ConformalMap is not supported by fgslice: OpenVCAD's experimental wrapping"),
     ("pv.Map('a.off', 'b.off')", r"pyvcad.Map is not supported by fgslice: OpenVCAD's experimental surface"),
     ("pv.PointMap('a.stl', 'b.inp', 'c.csv', ['1'], [1], True)", r"pyvcad.PointMap is not supported by fgslice: "
                                                                   r"it needs the simulation's tetrahedral mesh"),

@@ -75,6 +75,10 @@ _REFUSED = {
         "leave the support nodes out of the design and slice with --set support=true: fgslice builds the support"),
     "Map": ("OpenVCAD's experimental surface parameterization has no documented geometry or material to print",
             "model the part with its meshes and primitives"),
+    "ConformalMap": ("OpenVCAD's experimental wrapping of a pattern onto a surface is defined by its implementation "
+                     "(anchor point, transported frame, calibrated arc length), which its documentation outlines "
+                     "without the formulas, so fgslice cannot print what OpenVCAD shows",
+                     "model the pattern on the surface with booleans of the base and the pattern"),
     "PointMap": ("it needs the simulation's tetrahedral mesh (.inp) and nodal displacements (.csv), "
                  "which fgslice does not read",
                  "grade the part with FGrade expressions of x, y, z instead"),
