@@ -134,3 +134,59 @@ def test_names_a_filament_printer_cannot_honour_are_refused_with_the_reason(tmp_
     with pytest.raises(DesignError, match=message) as caught:
         load_script(path)
     assert caught.value.file == str(path) and caught.value.hint
+
+
+PIXELS = np.array([[[1.0, 0.0, 0.0, 1.0], [0.0, 1.0, 0.0, 0.5], [0.0, 0.0, 1.0, 1.0]],
+                   [[1.0, 1.0, 1.0, 1.0], [0.0, 0.0, 0.0, 0.25], [0.5, 0.5, 0.5, 1.0]]])
+"""A 3 x 2 pixel RGBA image: row 0 is its top."""
+
+
+def test_a_png_image_is_a_colour_volume_with_a_pixel_per_voxel(tmp_path):
+    from matplotlib import image
+
+    image.imsave(tmp_path / "logo.png", PIXELS)
+    design = load_script(script(tmp_path, """
+        loader = pv.PNGLoader.FromImage("logo.png", pv.Vec3(2, 1, 0.5), 3.0, pv.PNGColorMode.COLOR_RGBA, center=True)
+        volume = loader.as_rgba_volume()
+        lo, hi = volume.bounding_box()
+        carrier = pv.RectPrism.FromMinAndMax(lo, hi)
+        carrier.set_attribute(pv.DefaultAttributes.COLOR_RGBA, pv.Vec4Attribute(volume))
+        root = carrier
+    """))
+    from fgslice.design.attributes import attribute_fields
+
+    np.testing.assert_allclose(design.bounds(), ((-3, -1, -1.5), (3, 1, 1.5)))
+    fields = attribute_fields(design)
+    columns, rows = np.meshgrid(np.arange(3), np.arange(2))
+    x, y = -3 + 2 * columns.ravel() + 1, 1 - rows.ravel() - 0.5  # pixel centres: row 0 at the top
+    for z in (-1.25, 0.0, 1.25):  # the image repeats through the depth
+        got = np.stack([fields.values(f"color_rgba.{c}", x, y, np.full(x.shape, z)) for c in "rgba"], axis=1)
+        np.testing.assert_allclose(got, PIXELS.reshape(-1, 4), atol=1 / 255)
+    between = fields.values("color_rgba.g", np.array([-1.0]), np.array([0.5]), np.array([0.0]))
+    assert between[0] == pytest.approx(0.5, abs=1 / 255)  # halfway from red (g 0) to green (g 1)
+
+
+def test_a_png_stack_is_stacked_from_the_bottom_and_rgb_drops_alpha(tmp_path):
+    from matplotlib import image
+
+    (tmp_path / "stack").mkdir()
+    for i, value in enumerate((0.0, 1.0)):
+        image.imsave(tmp_path / "stack" / f"slice_{i:02d}.png", np.full((2, 2, 3), value))
+    design = load_script(script(tmp_path, """
+        volume = pv.PNGLoader.FromStack("stack", pv.Vec3(1, 1, 2), pv.PNGColorMode.COLOR_RGB).as_rgb_volume()
+        lo, hi = volume.bounding_box()
+        root = pv.RectPrism.FromMinAndMax(lo, hi)
+        root.set_attribute(pv.DefaultAttributes.COLOR_RGB, pv.Vec3Attribute(volume))
+    """))
+    from fgslice.design.attributes import attribute_fields
+
+    np.testing.assert_allclose(design.bounds(), ((0, 0, 0), (2, 2, 4)))
+    red = attribute_fields(design).values("color_rgb.r", np.array([1.0, 1.0]), np.array([1.0, 1.0]),
+                                          np.array([0.5, 3.5]))
+    np.testing.assert_allclose(red, (0.0, 1.0), atol=1 / 255)
+    with pytest.raises(DesignError, match="made with PNGColorMode.COLOR_RGB"):
+        load_script(script(tmp_path, 'pv.PNGLoader.FromStack("stack", pv.Vec3(1, 1, 1), '
+                                     'pv.PNGColorMode.COLOR_RGB).as_rgba_volume()', "rgba.py"))
+    with pytest.raises(DesignError, match="'nothere.png' not found"):
+        load_script(script(tmp_path, 'pv.PNGLoader.FromImage("nothere.png", pv.Vec3(1, 1, 1), 1, '
+                                     'pv.PNGColorMode.COLOR_RGB)', "missing.py"))

@@ -59,6 +59,10 @@ def __getattr__(name: str):
         return getattr(pyvcad_metamaterials, name)
     if name.startswith("__"):
         raise AttributeError(name)
+    if name in ("PNGLoader", "PNGColorMode"):  # OpenVCAD 3's image volumes
+        from fgslice.compat import png_loader
+
+        return getattr(png_loader, name)
     from fgslice.compat import pyvcad_v3
 
     if name in pyvcad_v3.__all__:
@@ -403,6 +407,12 @@ class RectPrism(_Leaf):
                                        {"center": Vec3(), "size": Vec3(1, 1, 1), "material": 1})
         center, size = _vec3("RectPrism", "center", center), _vec3("RectPrism", "size", size)
         super().__init__(_centred(center, api.rectprism(size, material=_material("RectPrism", material))))
+
+    @classmethod
+    def FromMinAndMax(cls, lo, hi, material=1) -> RectPrism:  # noqa: N802 (OpenVCAD 3's name)
+        """The box from corner ``lo`` to corner ``hi`` (``Vec3``, mm)."""
+        a, b = _vec3("RectPrism", "min", lo), _vec3("RectPrism", "max", hi)
+        return cls(Vec3(*((u + v) / 2 for u, v in zip(a, b))), Vec3(*(v - u for u, v in zip(a, b))), material)
 
 
 class Sphere(_Leaf):
