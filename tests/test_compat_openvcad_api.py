@@ -99,6 +99,9 @@ def test_j750_resins_print_as_the_filaments_of_their_colours(tmp_path):
     with pytest.raises(DesignError, match="'Agilus30Yl' and 'veroyellow' would both print as 'yellow'"):
         load_script(script(tmp_path, "a = pv.j750_materials.id('VeroYellow')\nb = pv.j750_materials.id('Agilus30Yl')",
                            "same.py"))
+    alone = load_script(script(tmp_path, "root = pv.Sphere(0, 0, 0, 1, pv.j750_materials.id('Agilus30Yl'))",
+                               "alone.py"))  # another script's resins do not count
+    assert [m.name for m in alone.materials] == ["yellow"]
     with pytest.raises(DesignError, match="no filament stands for the resin 'Tango'"):
         load_script(script(tmp_path, "a = pv.j750_materials.id('Tango')", "tango.py"))
 

@@ -210,12 +210,15 @@ class _J750Materials(MaterialDefs):
     def __init__(self) -> None:
         super().__init__()
         self._resins: dict[str, str] = {}
+        self._run = None
 
     def id(self, name: str) -> MaterialId:
         from fgslice.compat import j750
 
         if not isinstance(name, str):
             raise DesignError(f"j750_materials.id takes a resin name, got {name!r}")
+        if self._run is not context.current():  # the resins a script chose are its own
+            self._resins, self._run = {}, context.current()
         filament = j750.filament_of(name)
         j750.check_distinct(self._resins, name, filament)
         self._resins[name.lower()] = filament
