@@ -76,7 +76,7 @@ _REFUSED = {
     "SupportAnalyzerParallel": (
         "it computes inkjet support material (voxels of a support resin under the overhangs), which a filament "
         "printer does not print as part of the design",
-        "leave the support nodes out of the design and slice with --set support=true: fgslice builds the support"),
+        "leave the support nodes out of the design and slice with --set support=true, fgslice's own support"),
     "Map": ("OpenVCAD's experimental surface parameterization has no documented geometry or material to print",
             "model the part with its meshes and primitives"),
     "ConformalMap": ("OpenVCAD's experimental wrapping of a pattern onto a surface is defined by its implementation "
