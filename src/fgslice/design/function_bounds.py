@@ -6,7 +6,8 @@ so its bounds must be those of the inside region. Each side of the box is moved 
 plane by plane (planes :func:`step` mm apart, each sampled on a grid of that step) to
 the first plane holding an inside sample, then bisected against the last empty plane to
 :data:`TOLERANCE`; the bound kept is the empty side, so the region lies within it. A
-feature thinner than the step between two sampled planes or points can be missed.
+feature thinner than the step between two sampled planes or points can be missed; a
+function no sample finds inside keeps its box.
 """
 
 from __future__ import annotations
@@ -31,9 +32,10 @@ def step(extent: float) -> float:
 
 
 def tight_box(field: Callable, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(lo, hi)`` of where ``field(x, y, z) <= 0`` inside the box ``lo..hi`` (mm);
-    ``lo > hi`` when no sample is inside."""
-    lo, hi = np.array(lo, dtype=float), np.array(hi, dtype=float)
+    """``(lo, hi)`` of where ``field(x, y, z) <= 0`` inside the box ``lo..hi`` (mm); the
+    box itself when no sample is inside (the sections then show what, if anything, is)."""
+    box = np.array(lo, dtype=float), np.array(hi, dtype=float)
+    lo, hi = box[0].copy(), box[1].copy()
     for axis in (2, 0, 1):
         others = [a for a in range(3) if a != axis]
         grids = [np.arange(lo[a], hi[a] + step(hi[a] - lo[a]) / 2, step(hi[a] - lo[a])) for a in others]
@@ -47,7 +49,7 @@ def tight_box(field: Callable, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarr
         planes = np.append(np.arange(lo[axis], hi[axis], step(hi[axis] - lo[axis])), hi[axis])
         inside = next((i for i, t in enumerate(planes) if holds(t)), None)
         if inside is None:
-            return hi.copy(), lo.copy()
+            return box
         last = next(i for i in range(len(planes) - 1, -1, -1) if holds(planes[i]))
         lo[axis] = planes[0] if inside == 0 else _bisect(holds, planes[inside - 1], planes[inside])
         hi[axis] = planes[-1] if last == len(planes) - 1 else _bisect(holds, planes[last + 1], planes[last])
