@@ -108,6 +108,19 @@ CASES = {
         f"root = pv.Function('x^2 + y^2 - 9', {BLUE}, pv.Vec3(-4, -4, 0), pv.Vec3(4, 4, 5))",
         'function((-4, -4, 0), (4, 4, 5), "x^2 + y^2 - 9", "blue");',
     ),
+    "Function without its box, FGrade of material numbers": (
+        """root = pv.FGrade(['x/8 + 0.5', '0.5 - x/8'], [1, 3], True, pv.Function('x^2 + y^2 + z^2 - 16'))""",
+        'fgrade(["x/8 + 0.5", "0.5 - x/8"], ["red", "blue"]) { function((-10, -10, -10), (10, 10, 10), '
+        '"x^2 + y^2 + z^2 - 16"); }',
+    ),
+    "Python function naming its coordinates": (
+        f"""import math
+        def wheel(theta, offset=0.0):
+            return 0.5 + 0.5 * math.cos(theta - offset)
+        root = pv.FGrade([wheel, lambda theta: 0.5 - 0.5 * math.cos(theta)], [{RED}, {BLUE}], True,
+                         pv.Cylinder(pv.Vec3(0, 0, 0), 6, 3, 1))""",
+        'fgrade(["0.5 + 0.5 cos(theta)", "0.5 - 0.5 cos(theta)"], ["red", "blue"]) { cylinder(6, 3); }',
+    ),
     "Strut": (
         f"root = pv.Strut(pv.Vec3(-4, 0, 0), pv.Vec3(4, 2, 1), 1.5, {RED})",
         'strut((-4, 0, 0), (4, 2, 1), 1.5, "red");',
@@ -227,15 +240,16 @@ def test_script_without_a_rendered_root_is_refused(tmp_path):
     (f"box = pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(1, 1, 1), {RED}, 2)", 4, r"RectPrism takes at most 3 arguments"),
     ("rod = pv.Strut(pv.Vec3(0, 0, 0), radius=1)", 4, "Strut is missing its argument 'end'"),
     ("rod = pv.Cylinder(pv.Vec3(0, 0, 0), 1, 2, 1, center=pv.Vec3(0, 0, 0))", 4, "Cylinder got 'center' twice"),
-    ("f = pv.Function('x^2 + y^2 - 1', 1)", 4, "Function needs its bounding box"),
     (f"ball = pv.Sphere(pv.Vec3(0, 0, 0), 1, {RED})\n        box = ball.bounding_box()", 5,
      "Sphere.bounding_box is not supported"),
     (f"root = pv.Union(-2.0, False, [pv.Sphere(pv.Vec3(0, 0, 0), 1, {RED})])", 4, r"k must be >= 0, got -2"),
     ("import pyvcad_rendering as viz\n        viz.RenderFrame()", 5, "pyvcad_rendering.RenderFrame is not supported"),
     ("root = pv.Translate(1, 2)", 4, r"Translate takes \(\) or \(x, y, z\), then optionally the child, got 2"),
     ("root = pv.Rotate(pv.Vec3(0, 0, 0), 5)", 4, r"Rotate takes .* \(angles: Vec3\) .*, got 2"),
-    ("root = pv.FGrade(['x', '1-x'], [1, 2], False, pv.Sphere(pv.Vec3(0, 0, 0), 1))", 4,
+    ("root = pv.FGrade(['x', '1-x'], ['red', 2], False, pv.Sphere(pv.Vec3(0, 0, 0), 1))", 4,
      "materials must be a list of ids"),
+    ("root = pv.FGrade(['x', '1-x'], [1, 200], False, pv.Sphere(pv.Vec3(0, 0, 0), 1))", 4,
+     "material id 200 is not in the material table"),
     ("root = pv.Sphere(pv.Vec3(0, 0, 0), -1)", 4, "r must be positive"),
     ("root = pv.Union()", 4, "Union has no children"),
     (f"root = pv.Union(False, [pv.Sphere(pv.Vec3(0, 0, 0), 1, {RED})], 3)", 4, r"Union takes \(\[k\]"),
@@ -293,8 +307,8 @@ def test_syntax_and_import_errors_of_the_script(tmp_path):
     with pytest.raises(DesignSyntaxError, match="not a text file") as caught:
         load_script(binary)
     assert "UTF-8 Python source" in caught.value.hint
-    missing = script(tmp_path, "import pyvcad_compilers as pvc", "compilers.py")
-    with pytest.raises(DesignError, match="ModuleNotFoundError: No module named 'pyvcad_compilers'") as caught:
+    missing = script(tmp_path, "import pyvcad_voxels", "voxels.py")
+    with pytest.raises(DesignError, match="ModuleNotFoundError: No module named 'pyvcad_voxels'") as caught:
         load_script(missing)
     assert caught.value.line == 4
 

@@ -86,9 +86,13 @@ def test_bounds_are_tight_for_boxes_and_transforms():
     np.testing.assert_allclose(hi, (2, 2, 2))
     lo, hi = api.design(api.scale((2, -3, 1), api.sphere(1))).bounds()
     np.testing.assert_allclose(lo, (-2, -3, -1))
-    lo, hi = api.design(api.function((0, 1, 2), (3, 4, 5), lambda x, y, z: x)).bounds()
+    lo, hi = api.design(api.function((0, 1, 2), (3, 4, 5), lambda x, y, z: x - 5)).bounds()
     np.testing.assert_allclose(lo, (0, 1, 2))
     np.testing.assert_allclose(hi, (3, 4, 5))
+    lo, hi = api.design(api.function((0, 1, 2), (3, 4, 5), lambda x, y, z: x - 1.5)).bounds()
+    np.testing.assert_allclose(lo, (0, 1, 2))  # a function's bounds: its inside region within the box
+    np.testing.assert_allclose(hi, (1.5, 4, 5), atol=1e-3)
+    assert hi[0] >= 1.5
 
 
 def test_fgrade_fields_see_their_own_frame_through_nested_transforms():

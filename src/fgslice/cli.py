@@ -138,6 +138,7 @@ def _slice(design: Path, output: Path, settings, materials, stats_path, report_p
     """:func:`slice_command` once the settings are loaded: slice to the file ``output``
     and print the summary (on stderr when the G-code goes to stdout)."""
     from fgslice.compat import open_design as load_design
+    from fgslice.design.scaled import scaled
     from fgslice.output import check_writable
     from fgslice.pipeline import slice_to_gcode
     from fgslice.preview.thumbnails import parse_sizes, render_thumbnails
@@ -146,7 +147,7 @@ def _slice(design: Path, output: Path, settings, materials, stats_path, report_p
     for extra in (stats_path, report_path):
         if extra:
             check_writable(extra, inputs=(design, output))
-    loaded = load_design(design, materials)
+    loaded = scaled(load_design(design, materials), settings.scale)
     comments = {"design": str(design), "command": "fgslice " + " ".join(sys.argv[1:])}
     sizes = parse_sizes(settings.thumbnails)
     with _progress("slicing") as progress:
@@ -237,10 +238,11 @@ class _progress:
 def check_command(design, materials, profile, sets):
     """Load DESIGN (.vcad or an OpenVCAD .py script) and report its materials, size, attribute ranges and problems."""
     from fgslice.compat import open_design as load_design
+    from fgslice.design.scaled import scaled
     from fgslice.design import check_design, format_report
 
     settings = _settings(profile, sets)
-    loaded = load_design(design, materials)
+    loaded = scaled(load_design(design, materials), settings.scale)
     report = check_design(loaded, settings=settings)
     click.echo(format_report(report))
     if report.usable:
@@ -329,6 +331,7 @@ def simulate_command(gcode, design_path, materials, profile, sets, melt_volume, 
     from fgslice.analysis.fidelity import fidelity, plot_layer_error, simulation_stats
     from fgslice.analysis.simulate import simulate, simulation_settings
     from fgslice.compat import open_design as load_design
+    from fgslice.design.scaled import scaled
     from fgslice.output import check_writable
     from fgslice.settings import parse_overrides
 
@@ -336,7 +339,7 @@ def simulate_command(gcode, design_path, materials, profile, sets, melt_volume, 
         if path:
             check_writable(path, inputs=(gcode, design_path))
     settings = simulation_settings(gcode, profile, parse_overrides(sets))
-    design = load_design(design_path, materials)
+    design = scaled(load_design(design_path, materials), settings.scale)
     result = simulate(gcode, design, None, settings, melt_volume_mm3=melt_volume, palette_size=colors)
     report = fidelity(result, colors)
     stats = simulation_stats(result, report)

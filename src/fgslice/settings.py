@@ -88,6 +88,7 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     center: Annotated[bool, Meta(description="center the part on the bed")] = True
     position_x: Annotated[float, Meta(ge=-5000, le=5000, description="part center X when center = false, mm")] = 0.0
     position_y: Annotated[float, Meta(ge=-5000, le=5000, description="part center Y when center = false, mm")] = 0.0
+    scale: Annotated[float, Meta(gt=0, le=100, description="the design scaled by this factor about its origin before it is placed (PrusaSlicer's --scale); 1: as designed")] = 1.0
     skirt_loops: Annotated[int, Meta(ge=0, le=20, description="loops around the part on the first layer")] = 1
     skirt_distance: Annotated[float, Meta(ge=0, le=100, description="gap between skirt and part, mm")] = 3.0
     brim_width: Annotated[float, Meta(ge=0, le=100, description="loops of a brim around the part on the first layer cover this width, mm; 0: no brim")] = 0.0

@@ -485,7 +485,7 @@ def trace_from_plans(plans, centers: np.ndarray, settings) -> SegmentTrace:
 SIMULATION_KEYS = (
     "profile_name", "dialect", "channels", "tool_count", "colors", "melt_volume_mm3", "mixing_share", "tau_s",
     "temperature_a", "temperature_b", "nozzle_temperature", "filament_diameter", "layer_height", "bead_width",
-    "travel_speed", "bed_x", "bed_y", "center", "position_x", "position_y",
+    "travel_speed", "bed_x", "bed_y", "center", "position_x", "position_y", "scale",
 )
 _NON_PART_ROLES = ("skirt", "brim", "wipe", "prime", "purge", "custom", "support")
 

@@ -44,7 +44,7 @@ __all__ = [
     "Vec3", "MaterialDefs", "default_materials", "resources_path",
     "RectPrism", "Sphere", "Cylinder", "Strut", "Mesh", "CAD", "Function",
     "Union", "Intersection", "Difference", "Translate", "Rotate", "Scale", "FGrade",
-    "LatticeType", "GraphLattice", "Tile", "ImplicitUnitCell", "GraphUnitCell",
+    "LatticeType", "GraphLattice", "Tile", "ImplicitUnitCell", "GraphUnitCell", "j750_materials",
 ]
 
 
@@ -59,12 +59,47 @@ def __getattr__(name: str):
         return getattr(pyvcad_metamaterials, name)
     if name.startswith("__"):
         raise AttributeError(name)
+    if name in ("PNGLoader", "PNGColorMode"):  # OpenVCAD 3's image volumes
+        from fgslice.compat import png_loader
+
+        return getattr(png_loader, name)
     from fgslice.compat import pyvcad_v3
 
     if name in pyvcad_v3.__all__:
         value = globals()[name] = getattr(pyvcad_v3, name)  # found once: later look-ups skip this function
         return value
+    if name in _REFUSED:
+        return _Refused(name)
     raise _unsupported("pyvcad", name)
+
+
+_REFUSED = {
+    "SupportAnalyzerParallel": (
+        "it computes inkjet support material (voxels of a support resin under the overhangs), which a filament "
+        "printer does not print as part of the design",
+        "leave the support nodes out of the design and slice with --set support=true, fgslice's own support"),
+    "Map": ("OpenVCAD's experimental surface parameterization has no documented geometry or material to print",
+            "model the part with its meshes and primitives"),
+    "ConformalMap": ("OpenVCAD's experimental wrapping of a pattern onto a surface is defined by its implementation "
+                     "(anchor point, transported frame, calibrated arc length), which its documentation outlines "
+                     "without the formulas, so fgslice cannot print what OpenVCAD shows",
+                     "model the pattern on the surface with booleans of the base and the pattern"),
+    "PointMap": ("it needs the simulation's tetrahedral mesh (.inp) and nodal displacements (.csv), "
+                 "which fgslice does not read",
+                 "grade the part with FGrade expressions of x, y, z instead"),
+}
+"""OpenVCAD names fgslice refuses, with the reason and what to do instead."""
+
+
+class _Refused:
+    """A refused OpenVCAD class: using it raises a DesignError with the reason."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+
+    def __call__(self, *args, **kwargs):
+        reason, hint = _REFUSED[self.name]
+        raise DesignError(f"pyvcad.{self.name} is not supported by fgslice: {reason}", hint=hint)
 
 
 def _number(owner: str, what: str, value) -> float:
@@ -121,8 +156,11 @@ class MaterialId(int):
 class MaterialDefs:
     """OpenVCAD's material table: ``id(name)`` gives the id standing for ``name``.
 
-    Names are resolved by fgslice's material library when the design is built, so a name
-    it does not know (yet) is reported there, with the known names.
+    As in OpenVCAD, an id is the material's place in the table: here fgslice's built-in
+    library (1 red, 2 green, 3 blue, 4 yellow, 5 cyan, ...: ``fgslice materials``), then
+    other names in the order the script asks for them. Names are resolved by fgslice's
+    material library when the design is built, so a name it does not know (yet) is
+    reported there, with the known names.
     """
 
     def __init__(self, *args) -> None:
@@ -131,7 +169,18 @@ class MaterialDefs:
                 "pyvcad.MaterialDefs(config file) is not supported by fgslice's pyvcad",
                 hint="use pyvcad.default_materials; add materials with fgslice's --materials FILE",
             )
-        self._ids: dict[str, MaterialId] = {}
+        from fgslice.design.materials import builtin_library
+
+        names = [n.lower() for n in builtin_library().names if n.lower() != nodes.VOID]
+        self._ids: dict[str, MaterialId] = {n: MaterialId(i, n) for i, n in enumerate(names, 1)}
+
+    def name_of(self, number: int) -> MaterialId:
+        """The material whose id is ``number``."""
+        found = next((m for m in self._ids.values() if int(m) == number), None)
+        if found is None:
+            raise DesignError(f"material id {number} is not in the material table (ids 1 to {len(self._ids)})",
+                              hint="name the material: default_materials.id(name)")
+        return found
 
     def __call__(self) -> MaterialDefs:
         """``default_materials()``, as newer OpenVCAD scripts write it: the same table."""
@@ -153,6 +202,31 @@ class MaterialDefs:
 
 
 default_materials = MaterialDefs()
+
+
+class _J750Materials(MaterialDefs):
+    """OpenVCAD's ``j750_materials``: ``id(resin)`` is the id of the filament colour
+    printing that J750 resin (:mod:`fgslice.compat.j750`)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._resins: dict[str, str] = {}
+        self._run = None
+
+    def id(self, name: str) -> MaterialId:
+        from fgslice.compat import j750
+
+        if not isinstance(name, str):
+            raise DesignError(f"j750_materials.id takes a resin name, got {name!r}")
+        if self._run is not context.current():  # the resins a script chose are its own
+            self._resins, self._run = {}, context.current()
+        filament = j750.filament_of(name)
+        j750.check_distinct(self._resins, name, filament)
+        self._resins[name.lower()] = filament
+        return super().id(filament)
+
+
+j750_materials = _J750Materials()
 
 
 def _material(owner: str, material) -> str | None:
@@ -181,11 +255,13 @@ def _derived():
 
 def _field(owner: str, function, *, with_d: bool):
     """An expression string as it is, or OpenVCAD's point function
-    ``f(x, y, z, rho, phic, r, theta, phis[, d])`` as an fgslice field callable."""
+    ``f(x, y, z, rho, phic, r, theta, phis[, d])`` (or of some of them by name) as an
+    fgslice field callable."""
     if isinstance(function, str):
         return function
     if not callable(function):
         raise DesignError(f"{owner}: a function is an expression string or a Python function, got {function!r}")
+    function = _by_name(function, with_d) or function
     takes_d = with_d and _accepts(function, 9)
     if not takes_d and not _accepts(function, 8):
         raise DesignError(f"{owner}: a Python function takes (x, y, z, rho, phic, r, theta, phis"
@@ -199,6 +275,38 @@ def _field(owner: str, function, *, with_d: bool):
 
     without_d.__name__ = point.__name__
     return without_d
+
+
+_COORDINATES = ("x", "y", "z", "rho", "phic", "r", "theta", "phis", "d")
+
+
+def _by_name(function: Callable, with_d: bool) -> Callable | None:
+    """For a function that does not take OpenVCAD's eight (or nine) coordinates in order
+    but names some of them (``def f(theta, offset=0.5)``, as OpenVCAD Studio's examples
+    write them): a function of all of them that passes it the ones it names; else None."""
+    try:
+        parameters = inspect.signature(function).parameters.values()
+    except (TypeError, ValueError):
+        return None
+    known = _COORDINATES if with_d else _COORDINATES[:-1]
+    named = [p.name for p in parameters if p.name in known]
+    required = [p.name for p in parameters if p.default is inspect.Parameter.empty
+                and p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
+    if _accepts(function, 8) or not named or not set(required) <= set(named):
+        return None
+
+    def coordinates(*values):
+        return function(**{name: values[_COORDINATES.index(name)] for name in named})
+
+    def with_distance(x, y, z, rho, phic, r, theta, phis, d):
+        return coordinates(x, y, z, rho, phic, r, theta, phis, d)
+
+    def without_distance(x, y, z, rho, phic, r, theta, phis):
+        return coordinates(x, y, z, rho, phic, r, theta, phis)
+
+    chosen = with_distance if "d" in named else without_distance
+    chosen.__name__ = getattr(function, "__name__", "function")
+    return chosen
 
 
 def _accepts(function: Callable, count: int) -> bool:
@@ -241,6 +349,24 @@ class Node:
 
     def _build(self, convert) -> nodes.Node:
         raise NotImplementedError
+
+    def evaluate(self, *point) -> float:
+        """The signed distance at ``(x, y, z)`` (:mod:`fgslice.compat.evaluation`)."""
+        from fgslice.compat import evaluation
+
+        return evaluation.evaluate(self, *point)
+
+    def gradient(self, *point) -> Vec3:
+        """The distance's gradient at ``(x, y, z)`` or a ``Vec3`` (:mod:`fgslice.compat.evaluation`)."""
+        from fgslice.compat import evaluation
+
+        return evaluation.gradient(self, *point)
+
+    def snap(self, point) -> Vec3:
+        """The nearest point on the surface (:mod:`fgslice.compat.evaluation`)."""
+        from fgslice.compat import evaluation
+
+        return evaluation.snap(self, point)
 
     def set_attribute(self, name, attribute) -> None:
         """OpenVCAD 3: attach ``attribute`` as ``name`` (:mod:`fgslice.compat.pyvcad_v3`)."""
@@ -381,16 +507,14 @@ class CAD(_Leaf):
 
 
 class Function(_Leaf):
-    """``Function(function, material=1, min, max)``: inside where the function is <= 0,
-    within the box from ``min`` to ``max``; both corners are required."""
+    """``Function(function, material=1, min=Vec3(-10, -10, -10), max=Vec3(10, 10, 10))``:
+    inside where the function is <= 0, within the box from ``min`` to ``max`` (OpenVCAD's
+    default box: 20 mm about the origin)."""
 
     def __init__(self, *args, **kwargs) -> None:
         function, material, lo, hi = _bind("Function", ("function", "material", "min", "max"), args, kwargs,
-                                           {"material": 1, "min": None, "max": None})
+                                           {"material": 1, "min": Vec3(-10, -10, -10), "max": Vec3(10, 10, 10)})
         function = _field("Function", function, with_d=False)
-        if lo is None or hi is None:
-            raise DesignError("Function needs its bounding box: Function(function, material, min, max)",
-                              hint="give min and max as pyvcad.Vec3 corners (mm)")
         lo, hi = _vec3("Function", "min", lo), _vec3("Function", "max", hi)
         super().__init__(api.function(lo, hi, function, _material("Function", material)))
 
@@ -691,15 +815,18 @@ class Rotate(_Unary):
 class FGrade(_Unary):
     """``FGrade(functions, materials, prob_mode[, child])``: ``functions[i]`` (an
     expression string) is the fraction of ``materials[i]`` (ids from
-    ``default_materials.id``). Both modes give the continuous fractions."""
+    ``default_materials.id``, or plain numbers: the material of that id in
+    :class:`MaterialDefs`). Both modes give the continuous fractions."""
 
     def __init__(self, *args) -> None:
         super().__init__("FGrade", args, {3: "functions, materials, prob_mode"})
         functions, materials, prob_mode = self._args
         if isinstance(functions, str) or not isinstance(functions, Sequence):
             raise DesignError(f"FGrade: functions must be a list of expression strings, got {functions!r}")
-        if not isinstance(materials, Sequence) or not all(isinstance(m, MaterialId) for m in materials):
+        if not isinstance(materials, Sequence) or not all(
+                isinstance(m, numbers.Integral) and not isinstance(m, bool) for m in materials):
             raise DesignError("FGrade: materials must be a list of ids from default_materials.id(name)", hint=_DOCS)
+        materials = [m if isinstance(m, MaterialId) else default_materials.name_of(m) for m in materials]
         if not isinstance(prob_mode, bool):
             raise DesignError(f"FGrade: prob_mode must be True or False, got {prob_mode!r}")
         self._fields, self._names = [_field("FGrade", f, with_d=True) for f in functions], [m.name for m in materials]

@@ -269,6 +269,15 @@ class _Vector(Attribute):
     _channels: tuple[str, ...] = ()
 
     def __init__(self, *args) -> None:
+        from fgslice.compat.png_loader import ColorVolume
+
+        if len(args) == 1 and isinstance(args[0], ColorVolume):  # a PNGLoader's volume: its channels
+            if args[0].channels != len(self._channels):
+                raise DesignError(f"{self._owner} takes a volume of {len(self._channels)} channels, got "
+                                  f"{args[0].channels}", hint="as_rgb_volume() for Vec3Attribute, as_rgba_volume() "
+                                  "for Vec4Attribute")
+            self.fields = tuple(args[0].field(i) for i in range(len(self._channels)))
+            return
         v2._overload(self._owner, args, {0: "", len(self._channels): ", ".join(self._channels)})
         self.fields = tuple(_component(self._owner, c, a) for c, a in zip(self._channels, args)) if args else \
             (0.0,) * len(self._channels)

@@ -1,12 +1,13 @@
 """Run an OpenVCAD design script (``design.py``) and return the design it renders.
 
 The script runs as Python, in a fresh ``__main__`` namespace, with ``pyvcad``,
-``pyvcad_rendering``, ``pyvcad_metamaterials`` and ``pyvcad_attribute_resolver`` importable as
-:mod:`fgslice.compat.pyvcad`, :mod:`fgslice.compat.pyvcad_rendering`,
-:mod:`fgslice.compat.pyvcad_metamaterials` and :mod:`fgslice.compat.pyvcad_attribute_resolver`, and
+``pyvcad_rendering``, ``pyvcad_compilers``, ``pyvcad_metamaterials`` and ``pyvcad_attribute_resolver``
+importable as :mod:`fgslice.compat.pyvcad`, :mod:`fgslice.compat.pyvcad_rendering`,
+:mod:`fgslice.compat.pyvcad_compilers`, :mod:`fgslice.compat.pyvcad_metamaterials` and
+:mod:`fgslice.compat.pyvcad_attribute_resolver`, and
 ``numba`` as :mod:`fgslice.compat.numba_standin` (``sys.modules`` entries and the script's folder
 on ``sys.path``, both restored afterwards). The design is the root passed to the last
-``Export``, else to the last ``Render``, else the top-level variable ``root``. Any error —
+``Export`` (or compiled by a ``pyvcad_compilers`` compiler), else to the last ``Render``, else the top-level variable ``root``. Any error —
 the script's own exception, an unsupported pyvcad name or argument, an invalid value — is
 a :class:`~fgslice.errors.FgsliceError` at the script's file and line.
 
@@ -65,9 +66,9 @@ def _compile(path: Path, source: str):
 @contextlib.contextmanager
 def _pyvcad_importable(folder: Path):
     """``import pyvcad`` / ``pyvcad_rendering`` give fgslice's modules; the folder is on sys.path."""
-    from fgslice.compat import pyvcad_attribute_resolver, pyvcad_metamaterials
+    from fgslice.compat import pyvcad_attribute_resolver, pyvcad_compilers, pyvcad_metamaterials
 
-    names = {"pyvcad": pyvcad, "pyvcad_rendering": pyvcad_rendering,
+    names = {"pyvcad": pyvcad, "pyvcad_rendering": pyvcad_rendering, "pyvcad_compilers": pyvcad_compilers,
              "pyvcad_metamaterials": pyvcad_metamaterials, "pyvcad_attribute_resolver": pyvcad_attribute_resolver,
              "numba": numba_standin}
     saved = {name: sys.modules.get(name) for name in names}

@@ -469,7 +469,10 @@ class FunctionShape(Primitive):
         return np.maximum(self.field(x, y, z), box)
 
     def _bounds(self):
-        return self.lo.copy(), self.hi.copy()
+        """The box tightened to where the field is <= 0 (:mod:`fgslice.design.function_bounds`)."""
+        from fgslice.design.function_bounds import tight_box
+
+        return tight_box(self.field, self.lo, self.hi)
 
     def _section(self, z, spacing):
         """The expression's region traced on its own values (not the box-clamped sdf),

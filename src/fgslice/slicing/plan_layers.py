@@ -51,12 +51,14 @@ def place_design(design: Design, settings: Settings) -> Placement:
         raise SliceError(
             f"the part's footprint {width:.2f} x {depth:.2f} mm exceeds the bed {settings.bed_x:g} x {settings.bed_y:g} mm "
             f"(profile {settings.profile_name})",
-            hint="use a profile with a bigger bed (--profile), or scale the design down",
+            hint=f"scale it to fit, {_fitting_scale(width, depth, height, settings)}, or use a profile with a bigger "
+                 "bed (--profile)",
         )
     if height > settings.max_z + _EPS:
         raise SliceError(
             f"the part's height {height:.2f} mm exceeds the build height {settings.max_z:g} mm (bed {bed})",
-            hint="use a profile with a taller build volume (--profile), or scale the design down",
+            hint=f"scale it to fit, {_fitting_scale(width, depth, height, settings)}, or use a profile with a taller "
+                 "build volume (--profile)",
         )
     cx, cy = (settings.bed_x / 2, settings.bed_y / 2) if settings.center else (settings.position_x, settings.position_y)
     offset = (cx - (x0 + x1) / 2, cy - (y0 + y1) / 2, -z0)
@@ -68,6 +70,18 @@ def place_design(design: Design, settings: Settings) -> Placement:
             hint="--set center=true, or move it with --set position_x=... position_y=...",
         )
     return Placement(offset=offset)
+
+
+def _fitting_scale(width: float, depth: float, height: float, settings: Settings) -> str:
+    """The ``--set scale=`` that fits a part of these sizes (mm, as designed times
+    ``settings.scale``) on the bed with its skirt and brim around it: the largest factor
+    in hundredths."""
+    margin = settings.brim_width + (settings.skirt_distance + settings.skirt_loops * settings.bead_width
+                                    if settings.skirt_loops else 0.0)
+    room = min((settings.bed_x - 2 * margin) / width if width else math.inf,
+               (settings.bed_y - 2 * margin) / depth if depth else math.inf,
+               settings.max_z / height if height else math.inf)
+    return f"--set scale={math.floor(100 * settings.scale * room) / 100:g}"
 
 
 def layer_count(height: float, layer_height: float) -> int:
