@@ -46,6 +46,7 @@ def split_bridges(areas: InnerAreas, below, settings: Settings) -> tuple[InnerAr
     if over_air.is_empty:
         return areas, over_air
     bridges = shapely.intersection(shapely.buffer(over_air, ANCHOR_BEADS * w, join_style="mitre"), skins)
+    bridges = shapely.union_all([piece for _, _, piece in bridge_pieces(bridges, w)])
     return InnerAreas(shapely.difference(areas.top, bridges), shapely.difference(areas.solid, bridges),
                       areas.sparse), bridges
 
@@ -58,38 +59,48 @@ def span_angle(region) -> float:
     return math.degrees(math.atan2(short[1], short[0])) % 180.0
 
 
-def bridge_paths(bridges, settings: Settings, faces=None) -> list[Path]:
+def bridge_pieces(bridges, w: float, faces=None) -> list[tuple[float, int, shapely.Geometry]]:
+    """``(angle, color, piece)`` of every bridge: its direction across the shortest span
+    (degrees), and the bridge itself in color 0 or, with ``faces`` (one per palette color,
+    strategy 2), each face's share of it in the face's color. Pieces smaller than a bead's
+    square are left out: their area stays with the fill around them."""
+    out = []
+    for part in shapely.get_parts(bridges):
+        if part.area < w * w:
+            continue
+        angle = span_angle(part)
+        shares = [(0, part)] if faces is None else [(c, shapely.intersection(part, f)) for c, f in enumerate(faces)]
+        out += [(angle, color, share) for color, share in shares if share.area >= w * w]
+    return out
+
+
+def bridge_paths(bridges, settings: Settings, faces=None, pieces=None) -> list[Path]:
     """Lines across each bridge's shortest span (see the module), color 0 (cut into colors
     later); with ``faces`` (one per palette color, strategy 2), each face's share of a
-    bridge gets that bridge's lines in the face's color."""
+    bridge gets that bridge's lines in the face's color; ``pieces``: :func:`bridge_pieces`
+    already computed."""
     if bridges.is_empty:
         return []
     w, h = settings.bead_width, settings.layer_height
     area = bead_area(w, h) * settings.bridge_flow / 100.0
     width = max((area - math.pi * h * h / 4) / h + h, h)
     out: list[Path] = []
-    for part in shapely.get_parts(bridges):
-        if part.area < w * w:
-            continue
-        angle = span_angle(part)
-        pieces = [(0, part)] if faces is None else [(c, shapely.intersection(part, f)) for c, f in enumerate(faces)]
-        for color, piece in pieces:
-            if piece.area < w * w:
-                continue
-            points, chain, _ = line_fill(piece, area / h, angle, width)
-            out += open_paths(points, chain, Role.BRIDGE_INFILL, color, width, h)
+    for angle, color, piece in bridge_pieces(bridges, w, faces) if pieces is None else pieces:
+        points, chain, _ = line_fill(piece, area / h, angle, width)
+        out += open_paths(points, chain, Role.BRIDGE_INFILL, color, width, h)
     return out
 
 
 def face_bridges(outline, below, settings: Settings) -> shapely.Geometry:
     """Strategy 2: the layer's area over air (``outline`` minus ``below``, the outline of
-    the layer under it; None on the first layer), less what is narrower than a bead,
+    the layer under it; None on the first layer), less what is narrower than two beads
+    (the crescent a leaning strut or wall overhangs by is printed by the face's loops),
     grown :data:`ANCHOR_BEADS` beads onto what carries it, within the outline eroded by a
     bead (the outermost loop still runs along the surface)."""
     if below is None:
         return shapely.Polygon()
     w = settings.bead_width
-    over_air = opening(shapely.difference(outline, below), w / 2)
+    over_air = opening(shapely.difference(outline, below), w)
     if over_air.is_empty:
         return over_air
     inside = shapely.buffer(outline, -w, join_style="mitre")

@@ -33,7 +33,7 @@ import shapely
 from fgslice.settings import Settings
 from fgslice.slicing.layers import LayerRegions
 from fgslice.slicing.regions import SECTION_TOLERANCE
-from fgslice.toolpaths.bridges import bridge_paths
+from fgslice.toolpaths.bridges import bridge_paths, bridge_pieces
 from fgslice.toolpaths.infill import dense_levels, solid_fill, uncovered_area
 from fgslice.toolpaths.paths import LayerPaths, Path, Role
 from fgslice.toolpaths.simplify import simplify_paths, simplify_polygons
@@ -57,9 +57,12 @@ def layer_paths(regions: LayerRegions, settings: Settings, bridges=None) -> Laye
         return out
     bridged: list[Path] = []
     if bridges is not None and not bridges.is_empty:
-        bridged = bridge_paths(bridges, settings, faces=regions.faces)
+        pieces = bridge_pieces(bridges, w, regions.faces)
+        bridged = bridge_paths(bridges, settings, pieces=pieces)
+        shares = [shapely.union_all([p for _, c, p in pieces if c == color]) for color in range(len(regions.faces))]
         regions = dataclasses.replace(
-            regions, faces=tuple(shapely.difference(np.asarray(regions.faces, dtype=object), bridges)))
+            regions, faces=tuple(shapely.difference(np.asarray(regions.faces, dtype=object),
+                                                    np.asarray(shares, dtype=object))))
     faces, parts, owner, eroded, exact = _eroded_faces(regions.faces, settings)
     # a polygon offset vertex by vertex comes back whole when dilated: nothing uncovered
     uncovered = uncovered_area(parts[~exact], w, eroded=eroded[~exact])
