@@ -76,7 +76,7 @@ def test_too_little_memory_is_refused_naming_jobs():
 
 def test_a_large_job_is_warned_about_with_the_settings_that_help():
     s = settings(strategy=2, colors=16)
-    est = estimate_resources(curved(200, 200, 150), s, jobs=2)
+    est = estimate_resources(curved(200, 200, 150), s, jobs=1)
     warnings = check_budget(est, s, memory_mb=1e9, disk_mb=1e9)
     assert any("G-code is estimated" in w and "colors=" in w and "layer_height" in w for w in warnings)
     assert any("minutes" in w or "min:" in w for w in warnings)
