@@ -130,12 +130,7 @@ def mesh(path: str | Path, material: str | None = None) -> nodes.Node:
 
     if is_cad_file(path):
         return cad(path, material)
-    found = resolve_mesh_path(str(path), None)
-    try:
-        geometry = load_mesh(found)
-    except MeshError as exc:
-        raise MeshError(f"mesh '{path}': {exc.message}", file=found, hint=exc.hint) from None
-    return nodes.MeshShape(geometry, str(found), _material(material))
+    return _loaded_mesh(path, load_mesh, "mesh", material)
 
 
 def cad(path: str | Path, material: str | None = None) -> nodes.Node:
@@ -143,11 +138,17 @@ def cad(path: str | Path, material: str | None = None) -> nodes.Node:
     (:mod:`fgslice.design.cad`; needs the ``cad`` extra); relative paths from the cwd."""
     from fgslice.design.cad import load_cad
 
+    return _loaded_mesh(path, load_cad, "CAD file", material)
+
+
+def _loaded_mesh(path: str | Path, load, what: str, material: str | None) -> nodes.Node:
+    """The mesh node of the file ``path`` (relative: from the cwd) read by ``load``; its
+    errors name the file as ``what``."""
     found = resolve_mesh_path(str(path), None)
     try:
-        geometry = load_cad(found)
+        geometry = load(found)
     except MeshError as exc:
-        raise MeshError(f"CAD file '{path}': {exc.message}", file=found, hint=exc.hint) from None
+        raise MeshError(f"{what} '{path}': {exc.message}", file=found, hint=exc.hint) from None
     return nodes.MeshShape(geometry, str(found), _material(material))
 
 

@@ -50,7 +50,7 @@ class Kept(nodes.Affine):
     moved_tree = None
 
 
-class Placed(nodes.Node):
+class Placed(nodes.Reshaped):
     """A material node under a map: geometry (distance, bounds, sections) of ``shape``,
     the map already applied to its meshes; fractions of ``materials`` (the node under
     the map, evaluated in its own frame)."""
@@ -64,15 +64,6 @@ class Placed(nodes.Node):
     @property
     def valid_sections(self) -> bool:
         return self.shape.valid_sections
-
-    def sdf(self, x, y, z):
-        return self.shape.sdf(x, y, z)
-
-    def _bounds(self):
-        return self.shape.bounds()
-
-    def _sections(self, zs, spacing):
-        return self.shape.sections(zs, spacing)
 
     def raw(self, x, y, z, columns):
         return self.materials.raw(x, y, z, columns)

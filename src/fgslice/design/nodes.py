@@ -1098,3 +1098,19 @@ class NodeDesign(Design):
         """Build every mesh's whole tables now (:meth:`fgslice.design.mesh.MeshGeometry.prepare_sections`)."""
         for mesh in self.meshes:
             mesh.geometry.prepare_sections()
+
+
+class Reshaped(Node):
+    """A node with the geometry (distance, bounds, sections) of :attr:`shape`, another
+    node; its subclasses say where its materials and attributes come from."""
+
+    shape: Node
+
+    def sdf(self, x, y, z):
+        return self.shape.sdf(x, y, z)
+
+    def _bounds(self):
+        return self.shape.bounds()
+
+    def _sections(self, zs, spacing):
+        return self.shape.sections(zs, spacing)

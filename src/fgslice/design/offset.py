@@ -38,16 +38,14 @@ _EMPTY = shapely.MultiPolygon()
 def shifted(node: nodes.Node, d: float) -> nodes.Node:
     """A node whose distance is ``node``'s minus ``d`` (mm), the shift moved onto the
     leaves; it gives geometry only (its materials are not meant to be read)."""
-    from fgslice.design import moved, smooth
+    from fgslice.design import smooth
     from fgslice.design.attribute_ops import AttributeCarrier
 
     if d == 0:
         return node
     if isinstance(node, Shifted):
         return shifted(node.children[0], node.d + d)
-    if isinstance(node, Reshaped):
-        return shifted(node.shape, d)
-    if isinstance(node, moved.Placed):
+    if isinstance(node, nodes.Reshaped):  # Offset, Shell, a mesh moved under a map
         return shifted(node.shape, d)
     if isinstance(node, (nodes.MaterialNode, AttributeCarrier)):
         return shifted(node._body, d)
@@ -138,23 +136,7 @@ class Shifted(nodes.Node):
         return self._regions[spacing]
 
 
-class Reshaped(nodes.Node):
-    """A node with the geometry of :attr:`shape` and the materials and attributes of its
-    one child."""
-
-    shape: nodes.Node
-
-    def sdf(self, x, y, z):
-        return self.shape.sdf(x, y, z)
-
-    def _bounds(self):
-        return self.shape.bounds()
-
-    def _sections(self, zs, spacing):
-        return self.shape.sections(zs, spacing)
-
-
-class Offset(Reshaped):
+class Offset(nodes.Reshaped):
     """``Offset(d, child)``: the child grown by ``d`` mm (shrunk when ``d < 0``)."""
 
     kind = "offset"
@@ -165,7 +147,7 @@ class Offset(Reshaped):
         self.shape = shifted(child, self.d)
 
 
-class Shell(Reshaped):
+class Shell(nodes.Reshaped):
     """``Shell(t, child)``: the child hollowed, a closed wall ``t`` mm thick (``t > 0``)
     inside its surface."""
 
