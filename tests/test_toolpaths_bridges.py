@@ -45,14 +45,17 @@ def test_split_bridges_takes_the_skin_over_air_and_anchors_it():
     assert split_bridges(areas, outline, settings)[1].is_empty
 
 
-def test_bridge_lines_cross_the_channel_at_bridge_speed(tmp_path):
-    settings = load_settings(None, {"strategy": "1", "colors": "2", "bridge_speed": "17"})
-    out = tmp_path / "channel.gcode"
+def _bridge_lines(tmp_path, strategy: str):
+    """The sliced channel block's program and its extruding bridge moves, after asserting
+    what both strategies share: bridges on the layer over the channel only, at
+    ``bridge_speed``, the long ones across the channel (turned 30 degrees) and anchored two
+    beads each side."""
+    settings = load_settings(None, {"strategy": strategy, "colors": "2", "bridge_speed": "17"})
+    out = tmp_path / f"channel{strategy}.gcode"
     slice_to_gcode(parse_design(DESIGN), settings, out, jobs=1)
     program = read_gcode(out)
     roles = np.array(program.roles + [""], dtype=object)[program.role]
     bridge = (roles == "Bridge infill") & (program.e > 0) & (program.length > 0)
-    assert bridge.any()
     assert set(np.round(program.end[bridge, 2], 3)) == {2.2}  # the layer over the channel only
     assert (program.feed[bridge] == 17 * 60).all()
     d = (program.end[bridge] - program.start[bridge])[:, :2]
@@ -61,21 +64,13 @@ def test_bridge_lines_cross_the_channel_at_bridge_speed(tmp_path):
     assert long.sum() > 10
     assert np.allclose(angle[long], 120.0, atol=0.5)  # across the channel, turned 30 degrees
     assert 6.0 < program.length[bridge][long].max() < 6.0 + 2 * 2 * 0.4 + 0.05  # anchored two beads each side
+    return program, bridge
+
+
+def test_bridge_lines_cross_the_channel_at_bridge_speed(tmp_path):
+    _bridge_lines(tmp_path, "1")
 
 
 def test_strategy_2_bridges_cross_the_channel_in_the_faces_colors(tmp_path):
-    settings = load_settings(None, {"strategy": "2", "colors": "2", "bridge_speed": "17"})
-    out = tmp_path / "channel2.gcode"
-    slice_to_gcode(parse_design(DESIGN), settings, out, jobs=1)
-    program = read_gcode(out)
-    roles = np.array(program.roles + [""], dtype=object)[program.role]
-    bridge = (roles == "Bridge infill") & (program.e > 0) & (program.length > 0)
-    assert set(np.round(program.end[bridge, 2], 3)) == {2.2}  # the layer over the channel only
-    assert (program.feed[bridge] == 17 * 60).all()
-    d = (program.end[bridge] - program.start[bridge])[:, :2]
-    angle = np.degrees(np.arctan2(d[:, 1], d[:, 0])) % 180.0
-    long = program.length[bridge] > 3.0
-    assert long.sum() > 10
-    assert np.allclose(angle[long], 120.0, atol=0.5)  # across the channel, turned 30 degrees
-    assert 6.0 < program.length[bridge][long].max() < 6.0 + 2 * 2 * 0.4 + 0.05
+    program, bridge = _bridge_lines(tmp_path, "2")
     assert len(set(program.color_of_moves()[bridge])) == 2  # the graded roof keeps both colors
