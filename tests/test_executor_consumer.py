@@ -169,3 +169,44 @@ def test_a_pool_map_left_early_closes_its_shared_memory_cleanly(monkeypatch):
     assert [next(results)[0] for _ in range(3)] == [0, 1, 4]
     results.close()  # no view of the slots is left open, or closing their memory would raise
     assert closed == [True] and multiprocessing.active_children() == []
+
+
+def _note_sigterm_then_sleep(marker):
+    """What a process forked inside fgslice's fork guard does until it sets its own
+    handlers: a SIGTERM is only noted (here, in a file), and the process goes on."""
+    import signal
+    import time
+
+    signal.signal(signal.SIGTERM, lambda signum, frame: marker.write_text("noted"))
+    time.sleep(20)
+
+
+def sleep_noting_sigterm(messages, marker):
+    _note_sigterm_then_sleep(marker)
+    return "slept"
+
+
+def test_closing_a_consumer_stops_it_even_if_it_only_notes_sigterm(tmp_path):
+    import signal
+
+    marker = tmp_path / "sigterm"
+    consumer = Consumer(sleep_noting_sigterm, marker)
+    consumer.send(1)
+    consumer.close()
+    assert consumer._process.exitcode == -signal.SIGKILL and not marker.exists()
+
+
+def sleep_noting_sigterm_after_the_first(marker, item):
+    if item:
+        _note_sigterm_then_sleep(marker)
+    return item
+
+
+def test_a_pool_map_left_early_stops_workers_that_only_note_sigterm(tmp_path):
+    import multiprocessing
+
+    marker = tmp_path / "sigterm"
+    results = map_ordered(sleep_noting_sigterm_after_the_first, marker, range(4), jobs=2, window=2)
+    assert next(results) == 0
+    results.close()
+    assert multiprocessing.active_children() == [] and not marker.exists()

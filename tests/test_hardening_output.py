@@ -215,7 +215,11 @@ def test_termination_leaves_no_temporary_file_and_no_worker(tmp_path, slow_slice
         assert proc.poll() is None and time.monotonic() < deadline, "no worker processes found"
         time.sleep(0.05)
     os.kill(proc.pid, signum)
-    out, err = proc.communicate(timeout=60)
+    try:
+        out, err = proc.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        proc.send_signal(signal.SIGABRT)
+        pytest.fail("the slice did not end; where it was:\n" + proc.communicate()[1][-6000:])
     assert proc.returncode == 128 + signum, err
     assert f"terminated ({signal.Signals(signum).name}): no output file was written or changed" in err
     assert "Traceback" not in err

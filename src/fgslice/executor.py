@@ -118,11 +118,13 @@ class Consumer:
         return value
 
     def close(self) -> None:
-        """Stop the process if it still runs (idempotent)."""
+        """Stop the process if it still runs (idempotent). It is killed (SIGKILL), not
+        asked to stop: a process forked a moment before still has the parent's handler
+        that only notes SIGTERM (:func:`_forking`), and would never end."""
         if self._conn.closed:
             return
         if self._process.is_alive():
-            self._process.terminate()
+            self._process.kill()
         self._process.join()
         self._conn.close()
 
@@ -443,7 +445,7 @@ def _map_pool(fn, state, items, jobs, window) -> Iterator[Any]:
             future.cancel()
         if not finished:  # stopped early (an error, Ctrl-C, SIGTERM): the runs in flight are not awaited
             for process in list((getattr(pool, "_processes", None) or {}).values()):
-                process.terminate()
+                process.kill()  # not SIGTERM, which a worker just forked only notes (Consumer.close)
         pool.shutdown(wait=True, cancel_futures=True)
         if slots:
             slots.close()
