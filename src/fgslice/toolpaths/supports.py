@@ -40,7 +40,8 @@ inside it lines ``support_spacing`` apart
 along X on every layer (the same grid, so they stack into walls; ``grid`` adds lines
 along Y), role SUPPORT; the interface with lines ``support_interface_spacing`` apart
 along Y, role SUPPORT_INTERFACE; neighbouring lines are linked into serpentines where
-the link lies inside the region. Their color is :func:`support_color`.
+the link lies inside the region. Their color is the support's state
+(:func:`fgslice.toolpaths.support_state.resolve_support_state`).
 """
 
 from __future__ import annotations
@@ -51,11 +52,11 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 
-from fgslice.errors import SettingsError
 from fgslice.settings import Settings
 from fgslice.toolpaths.bridgeable import bridgeable
 from fgslice.toolpaths.infill import line_fill, open_paths
 from fgslice.toolpaths.paths import Path, Role, bead_area
+from fgslice.toolpaths.support_state import CURRENT_STATE
 from fgslice.toolpaths.walls import bead_spacing, opening, ring_groups, split_rings
 
 SLIVER_MM = 0.005
@@ -68,10 +69,6 @@ CLOSING_MM = 2.0
 BRIDGE_EDGE_MM = 1.5
 """How far (at most ``support_expansion``) the support of a bridge's unanchored edge
 reaches beyond it, mm: PrusaSlicer's support margin."""
-
-CURRENT_STATE = -1
-"""Support color with ``support_state = current``: printed in whatever state is current."""
-
 
 @dataclass(frozen=True)
 class SupportLayer:
@@ -204,28 +201,12 @@ def _without_crumbs(region: shapely.Geometry, w: float) -> shapely.Geometry:
     return shapely.union_all(parts) if len(parts) else shapely.Polygon()
 
 
-def check_support_state(settings: Settings, palette_size: int) -> None:
-    """A SettingsError when ``support_state`` names a color the palette lacks."""
-    state = settings.support_state
-    if settings.support and state != "current" and not 0 <= state < palette_size:
-        raise SettingsError(
-            f"support_state = {state} is not a color of this {palette_size}-color palette",
-            hint=f"--set support_state=current, or a color from 0 to {palette_size - 1}",
-        )
-
-
-def support_color(settings: Settings) -> int:
-    """The palette color support is printed in: ``support_state``, or
-    :data:`CURRENT_STATE` (whatever state the nozzle is in) for ``current``."""
-    return CURRENT_STATE if settings.support_state == "current" else int(settings.support_state)
-
-
-def support_paths(layer: SupportLayer, settings: Settings) -> list[Path]:
-    """The support lines of one layer (see the module)."""
+def support_paths(layer: SupportLayer, settings: Settings, color: int = CURRENT_STATE) -> list[Path]:
+    """The support lines of one layer (see the module), of ``color`` (the support's state,
+    :mod:`.support_state`)."""
     if layer.empty:
         return []
     w, h = settings.bead_width, settings.layer_height
-    color = support_color(settings)
     out: list[Path] = []
     angles = (0.0, 90.0) if settings.support_pattern == "grid" else (0.0,)
     if not layer.body.is_empty:
