@@ -61,7 +61,8 @@ def test_support_tool_prints_every_support_line_and_no_part_line(tmp_path, strat
     assert state_colors(load_printout(out)).labels[3] == "T3: support tool T3"
     assert read_footer(out)["referenced_tools"] == "0,1,3"
     text = out.read_text()
-    assert "\n; filament_settings_id = " in text and text.split("\n; filament_settings_id = ")[1].split("\n")[0].endswith(";support")
+    names = text.split("\n; filament_settings_id = ")[1].split("\n")[0]
+    assert names.endswith(";unused;support")
     # its own temperature, heated before the first layer, in PrusaSlicer's per-extruder list
     assert "\nM109 T3 S220\n" in text.split(";LAYER_CHANGE")[0] and "\n; temperature = 215,215,215,220\n" in text
 

@@ -176,16 +176,15 @@ def cheapest_color(settings: Settings, palette) -> int | None:
         return None
     materials = material_palette(palette)
     per_material = np.asarray(material_colors(palette, range(palette.size)))
-    if settings.dialect == "toolchanger":
-        needed, cost_of = materials.size, lambda: costs[per_material]
-    elif settings.dialect in MIXING_DIALECTS:
-        needed, cost_of = materials.n_materials, lambda: materials.centers[per_material] @ costs[: materials.n_materials]
-    else:
+    tools = settings.dialect == "toolchanger"
+    if not tools and settings.dialect not in MIXING_DIALECTS:
         return None
+    needed = materials.size if tools else materials.n_materials  # tools, or channels
     if len(costs) < needed:
         raise SettingsError(f"filament_costs has {len(costs)} costs; the palette uses {needed} filaments",
                             hint="one cost per kg for each channel or tool, comma-separated")
-    return int(np.argmin(cost_of()))
+    per_volume = costs[per_material] if tools else materials.centers[per_material] @ costs[:needed]
+    return int(np.argmin(per_volume))
 
 
 def layer_sequence(order: np.ndarray, state: SupportState, layer_index: int) -> np.ndarray:
