@@ -67,6 +67,14 @@ def test_support_tool_prints_every_support_line_and_no_part_line(tmp_path, strat
     assert "\nM109 T3 S220\n" in text.split(";LAYER_CHANGE")[0] and "\n; temperature = 215,215,215,220\n" in text
 
 
+def test_one_color_part_with_a_support_tool_gets_a_tower(tmp_path):
+    program, stats = _slice(tmp_path, "one", "toolchanger", colors=1, support="true", support_tool=1)
+    support, part, states = _moves(program)
+    tools = np.array([s.tool for s in states])
+    assert (tools[support] == 1).all() and (tools[part] == 0).all()
+    assert stats["purge_mm3"] > 0 and "\n; wipe_tower = 1\n" in (tmp_path / "one.gcode").read_text()
+
+
 def test_support_tool_adds_no_change_of_the_part_colors(tmp_path):
     plain, plain_stats = _slice(tmp_path, "plain", "toolchanger")
     program, stats = _slice(tmp_path, "tool", "toolchanger", support="true", support_tool=3)

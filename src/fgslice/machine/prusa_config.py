@@ -278,7 +278,7 @@ def prusaslicer_keys(settings: Settings, palette: PaletteLike, materials: Sequen
         "use_relative_e_distances": "1",
         "use_volumetric_e": "0",
         "wipe": each(flag(s.wipe_mm > 0)),
-        "wipe_tower": flag(s.strategy == 1 and s.purge and palette.size > 1),
+        "wipe_tower": flag(s.strategy == 1 and s.purge and (palette.size > 1 or (s.support and s.support_tool >= 0))),
         "xy_size_compensation": "0",
         "z_offset": "0",
     }
