@@ -186,3 +186,18 @@ def test_bridges_get_no_support_unless_asked(tmp_path):
     # a cantilever is no bridge: the T's arms keep their support
     t = plan_supports(_t_outlines(), Settings(support=True, dont_support_bridges=True))
     assert not t[5].empty
+
+
+def test_interface_is_what_a_layer_above_lacks():
+    # columns that change from layer to layer: a cone-like shelf standing partly on a block (support on the part)
+    block = shapely.box(-8, -3, 0, 3)
+    outlines = [block] * 4 + [shapely.box(-1, -3, 1, 3)] * 4 + [shapely.box(-2 - k, -3 - k / 2, 2 + k, 3) for k in range(6)]
+    settings = Settings(support=True, support_to="part", support_interface_layers=2, support_expansion=1.0)
+    layers = plan_supports(outlines, settings)
+    regions = [shapely.union(layer.body, layer.interface) for layer in layers]
+    assert sum(not layer.interface.is_empty for layer in layers) >= 3
+    for j, layer in enumerate(layers):
+        above = regions[j + 1 : j + 3]
+        covered = shapely.intersection_all(above) if len(above) == 2 else shapely.Polygon()
+        assert layer.body.symmetric_difference(regions[j].intersection(covered)).area < 1e-6
+        assert layer.interface.symmetric_difference(regions[j].difference(covered)).area < 1e-6

@@ -49,6 +49,7 @@ from fgslice.guards import check_resources
 from fgslice.resources import check_budget, estimate_resources
 from fgslice.interrupts import sigint_held
 from fgslice.machine.state_dialect import dialect_for
+from fgslice.machine.support_dialect import with_support_state
 from fgslice.machine.gcode import GcodeWriter, build_number_tables, prepare_bodies
 from fgslice.machine.grading import SegmentGrading, checked_attributes
 from fgslice.machine.timing import TimeModel
@@ -77,8 +78,8 @@ from fgslice.toolpaths.bridges import face_bridges
 from fgslice.toolpaths.brim import brim_area, brim_paths
 from fgslice.toolpaths.seams import place_seams
 from fgslice.toolpaths.skirt import skirt_paths
-from fgslice.toolpaths.supports import (SupportLayer, check_support_state, plan_supports, support_paths,
-                                        support_volume)
+from fgslice.toolpaths.support_state import SupportState, layer_sequence, pinned_changes, resolve_support_state
+from fgslice.toolpaths.supports import SupportLayer, plan_supports, support_paths, support_volume
 from fgslice.toolpaths.walls import simplify_outline
 
 
@@ -117,6 +118,7 @@ class SliceJob:
     grading: SegmentGrading | None = None
     fuzzy: FuzzySkin | None = None
     supports: list[SupportLayer] = field(default_factory=list)
+    support_state: SupportState = field(default_factory=SupportState)
 
 
 @dataclass
@@ -262,7 +264,7 @@ def _layer_result(job: SliceJob, index: int) -> LayerResult:
     if job.fuzzy is not None:
         paths.paths = job.fuzzy.apply(paths.paths, i, z_top - height / 2)
     part_mm3 = part_volume(paths.paths)
-    support = support_paths(job.supports[index], s) if job.supports else []
+    support = support_paths(job.supports[index], s, job.support_state.color) if job.supports else []
     paths.paths += support
     if index == 0:
         footprint = regions.outline  # the brim goes around the part and the support standing on the bed
@@ -271,7 +273,8 @@ def _layer_result(job: SliceJob, index: int) -> LayerResult:
         paths.paths = skirt_paths(brim_area(footprint, s), s) + brim_paths(footprint, s) + paths.paths
     colors = len({p.color for p in paths.paths if p.color >= 0})
     paths.paths = place_seams(paths.paths, s.seam_position, i)
-    plan = order_layer(paths, job.palette.order_for_layer(i), job.start_xy, s.feature_order,
+    sequence = layer_sequence(job.palette.order_for_layer(i), job.support_state, i)  # the support's own state too
+    plan = order_layer(paths, sequence, job.start_xy, s.feature_order,
                        fixed_seams=s.seam_position != "nearest")
     prepare_bodies(plan, s, job.grading)
     result = LayerResult(plan=plan, short_pieces=short, uncovered_mm2=paths.uncovered_mm2, colors=colors,
@@ -405,7 +408,8 @@ def slice_to_gcode(
     levels = state_levels(attributes.ranges, attributes.cover, settings) if attributes is not None else None
     palette = make_palette(len(design.materials), settings.colors, settings.palette, levels)
     dialect = dialect_for(settings, palette, attributes is not None and "flow" in attributes.names)
-    check_support_state(settings, palette.size)
+    support_state = resolve_support_state(settings, palette)
+    dialect = with_support_state(dialect, support_state)
     placement = place_design(design, settings)
     layers = layer_heights(design, settings)
     check_resources(design, settings, len(layers))
@@ -414,7 +418,7 @@ def slice_to_gcode(
     bed_center = np.array([settings.bed_x / 2, settings.bed_y / 2])
     job = SliceJob(design, settings, palette, placement, layers, bed_center,
                    grading=SegmentGrading.of(attributes, placement.offset, settings),
-                   fuzzy=FuzzySkin.of(attributes, placement.offset))
+                   fuzzy=FuzzySkin.of(attributes, placement.offset), support_state=support_state)
     if settings.strategy == 2:
         # one plane per layer task (strategy 1 sections batches of layers); a thumbnail
         # process forked later shares the tables too
@@ -423,7 +427,7 @@ def slice_to_gcode(
 
     with contextlib.ExitStack() as cleanup:
         tower = None
-        sizer = PurgeSizer.for_palette(settings, palette)
+        sizer = PurgeSizer.for_palette(settings, palette).with_support(support_state)
         batches = [range(i, min(i + SECTION_BATCH, len(layers))) for i in range(0, len(layers), SECTION_BATCH)]
         if settings.strategy == 1 or settings.support:
             job.outlines = list(itertools.chain.from_iterable(
@@ -438,8 +442,9 @@ def slice_to_gcode(
             render = _thumbnail_render(job, thumbnails)
             thumbnails = _start_thumbnails(render, cleanup) if jobs > 1 or scheduler else tuple(render())
         if settings.strategy == 1:
-            if settings.purge and palette.size > 1:
-                changes = _max_colors_per_layer(job, jobs, scheduler)
+            own = support_state.own and any(not layer.empty for layer in job.supports)  # one change more a layer
+            if settings.purge and (palette.size > 1 or own):
+                changes = _max_colors_per_layer(job, jobs, scheduler) + own
                 tower = PurgeTower.plan(_part_footprint(job), settings, max(changes, 1), len(layers), sizer)
                 job.start_xy = np.array([(tower.x0 + tower.x1) / 2, (tower.y0 + tower.y1) / 2])
 
@@ -478,7 +483,8 @@ def slice_to_gcode(
             stream = apply_time_lead(stream, settings.temperature_lead_s, _speed_of(settings))
         elif settings.lookahead_distance > 0:
             stream = apply_lookahead(stream, settings.lookahead_distance,
-                                     functools.partial(coasted_lengths, settings=settings) if settings.coast_mm else None)
+                                     functools.partial(coasted_lengths, settings=settings) if settings.coast_mm else None,
+                                     pinned_changes(support_state))
 
         header = {
             "placement_offset": ",".join(f"{v:.4f}" for v in placement.offset),

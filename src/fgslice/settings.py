@@ -105,7 +105,11 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     support_pattern: Annotated[Literal["rectilinear", "grid"], Meta(description="support lines along X (rectilinear) or along X and Y (grid)")] = "rectilinear"
     support_spacing: Annotated[float, Meta(gt=0, le=50, description="distance between support lines, mm")] = 2.0
     support_interface_spacing: Annotated[float, Meta(gt=0, le=50, description="distance between support interface lines, mm")] = 0.6
-    support_state: Annotated[int | Literal["current"], Meta(description="palette color support is printed in, or 'current': whatever state the nozzle is in (no state change, no purge)")] = "current"
+    support_state: Annotated[int | Literal["cheapest", "current"], Meta(description="palette color support is printed in; 'current': whatever state the nozzle is in (no state change, no purge); 'cheapest': the palette color of the lowest filament_costs, 'current' without costs")] = "cheapest"
+    support_mix: Annotated[str, Meta(description="mixing hotend: support is printed in this mix of the design's materials, fractions comma-separated (e.g. '1,0'), a state of its own outside the palette; empty: support_state")] = ""
+    support_tool: Annotated[int, Meta(ge=-1, le=63, description="toolchanger: the tool support is printed with (e.g. soluble PVA), one the palette's colors do not use (colors <= support_tool < tool_count); -1: none, support_state decides")] = -1
+    support_temperature: Annotated[float, Meta(ge=0, le=500, description="nozzle temperature of support_tool, C; 0: nozzle_temperature")] = 0.0
+    filament_costs: Annotated[str, Meta(description="cost per kg of each loaded filament (mixing channel or tool), comma-separated, as PrusaSlicer's filament_cost; support_state = cheapest prints support in the cheapest palette color")] = ""
     dont_support_bridges: Annotated[bool, Meta(description="no support under overhangs that lines across land on the layer below at both ends (bridges), as PrusaSlicer's")] = True
 
     # -- purge and dead volume -------------------------------------------------------

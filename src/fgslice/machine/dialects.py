@@ -114,6 +114,11 @@ class Dialect(ABC):
         """The commands of ``color``'s state on one line, e.g. ``M165 A0.1250 B0.8750``."""
         return " | ".join(self._commands(self._color(color)))
 
+    def extra_colors(self) -> dict[int, str]:
+        """Colors outside the palette this dialect writes, with their labels (the
+        support's own state: :mod:`.support_dialect`)."""
+        return {}
+
 
 class MarlinMixing(Dialect):
     """``M165 A.. B..``: the whole mix in one command."""

@@ -699,6 +699,7 @@ class GcodeWriter:
         lines += [
             f"; color {c} = {self.palette.label(c)} : {self.dialect.describe(c)}" for c in range(self.palette.size)
         ]
+        lines += [f"; color {c} = {label} : {self.dialect.describe(c)}" for c, label in self.dialect.extra_colors().items()]
         lines += ["", fill_placeholders(s.start_gcode, self._temperature_values(), "start_gcode")]
         lines += self.dialect.start_commands() + ["M83", "M107", ""]
         body = "\n".join(lines)

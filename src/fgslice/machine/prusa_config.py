@@ -63,6 +63,7 @@ from fgslice.machine.dialects import PaletteLike
 from fgslice.machine.gcode_header import SETTINGS_BLOCK
 from fgslice.settings import Settings
 from fgslice.slicing.states import material_colors, material_palette
+from fgslice.toolpaths.support_state import support_mix
 
 #: The PrusaSlicer version whose block format is written (2.4 introduced the delimiters).
 PRUSASLICER_FORMAT = "2.5.0"
@@ -108,7 +109,8 @@ def extruders(settings: Settings, palette: PaletteLike, materials: Sequence[Mate
     """``(colours, names)`` of PrusaSlicer's extruders: ``#RRGGBB`` and a filament name each.
 
     Toolchanger: tool ``n`` is palette color ``n``, colored by its mix and named by it
-    (``red 12.5% / blue 87.5%``). Mixing hotends: channel ``i`` is material ``i``, for the
+    (``red 12.5% / blue 87.5%``), and a ``support_tool`` beyond them is ``support`` (tools
+    between them ``unused``). Mixing hotends: channel ``i`` is material ``i``, for the
     design's materials (every channel when they are not known). Other dialects: one
     extruder of the first material, named ``host_filament_name`` when the profile sets one.
     """
@@ -119,7 +121,14 @@ def extruders(settings: Settings, palette: PaletteLike, materials: Sequence[Mate
         used = _materials(materials, palette.n_materials)
         rgba = mix_rgba(palette.centers, materials_rgba(used))
         names = [m.name for m in used]
-        return [_hex(c) for c in rgba], [fraction_label(center, names) for center in palette.centers]
+        colours, labels = [_hex(c) for c in rgba], [fraction_label(center, names) for center in palette.centers]
+        extra = settings.support_tool + 1 - len(colours) if settings.support else 0
+        if extra > 0:
+            from fgslice.preview.colors import UNKNOWN_RGBA
+
+            colours += [_hex(UNKNOWN_RGBA)] * extra
+            labels += ["unused"] * (extra - 1) + ["support"]
+        return colours, labels
     count = _channels_listed(settings, materials) if _mixing(settings) else 1
     used = _materials(materials, count)
     names = [m.name for m in used]
@@ -142,7 +151,8 @@ def tool_volumes(settings: Settings, palette: PaletteLike, materials: Sequence[M
     """The extruded volume (mm³) of each of :func:`extruders`: by tool on a toolchanger
     (the material color of each state), by channel on a mixing hotend (each state's volume
     split by its mix), else all of it. Volume printed before any state was commanded
-    (color -1) counts for the first extruder."""
+    (color -1) counts for the first extruder; the support's own state counts for its
+    tool, or for the channels of its mix."""
     count = len(extruders(settings, palette, materials)[0])
     out = np.zeros(count)
     for color, volume in volume_by_color.items():
@@ -151,7 +161,10 @@ def tool_volumes(settings: Settings, palette: PaletteLike, materials: Sequence[M
         elif settings.dialect == "toolchanger":
             out[material_colors(palette, (color,))[0]] += volume
         elif _mixing(settings):
-            mix = np.asarray(material_palette(palette).centers[material_colors(palette, (color,))[0]], dtype=float)
+            if color >= palette.size:  # the support's own mix
+                mix = support_mix(settings, palette.n_materials)
+            else:
+                mix = np.asarray(material_palette(palette).centers[material_colors(palette, (color,))[0]], dtype=float)
             share = np.zeros(count)
             share[: min(count, len(mix))] = mix[:count]
             out += volume * share
@@ -173,6 +186,9 @@ def prusaslicer_keys(settings: Settings, palette: PaletteLike, materials: Sequen
         return "1" if value else "0"
 
     nozzle, bed = str(round(s.nozzle_temperature)), str(round(s.bed_temperature))
+    nozzles = [nozzle] * n
+    if s.dialect == "toolchanger" and s.support and 0 <= s.support_tool < n:
+        nozzles[s.support_tool] = str(round(s.support_temperature or s.nozzle_temperature))
     fan = str(round(s.fan_speed))
     center = (s.bed_x / 2, s.bed_y / 2) if s.center else (s.position_x, s.position_y)
     dense = s.strategy == 2
@@ -210,7 +226,7 @@ def prusaslicer_keys(settings: Settings, palette: PaletteLike, materials: Sequen
         "first_layer_extrusion_width": _num(s.bead_width),
         "first_layer_height": _num(s.layer_height),
         "first_layer_speed": _num(s.first_layer_speed),
-        "first_layer_temperature": each(nozzle),
+        "first_layer_temperature": ",".join(nozzles),
         "gcode_flavor": "marlin2",
         "gcode_resolution": _num(s.gcode_resolution),
         "infill_every_layers": "1",
@@ -250,7 +266,7 @@ def prusaslicer_keys(settings: Settings, palette: PaletteLike, materials: Sequen
         "spiral_vase": "0",
         "start_gcode": _escaped(s.start_gcode),
         "support_material": flag(s.support),
-        "temperature": each(nozzle),
+        "temperature": ",".join(nozzles),
         "thin_walls": "0",
         "thumbnails": s.thumbnails,
         "top_infill_extrusion_width": _num(s.bead_width),
@@ -262,7 +278,7 @@ def prusaslicer_keys(settings: Settings, palette: PaletteLike, materials: Sequen
         "use_relative_e_distances": "1",
         "use_volumetric_e": "0",
         "wipe": each(flag(s.wipe_mm > 0)),
-        "wipe_tower": flag(s.strategy == 1 and s.purge and palette.size > 1),
+        "wipe_tower": flag(s.strategy == 1 and s.purge and (palette.size > 1 or (s.support and s.support_tool >= 0))),
         "xy_size_compensation": "0",
         "z_offset": "0",
     }

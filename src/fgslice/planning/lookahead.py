@@ -43,7 +43,8 @@ EPS = 1e-9
 
 
 def apply_lookahead(plans: Iterable[LayerPlan], distance_mm: float,
-                    coasted: Callable[[list[Path]], np.ndarray] | None = None) -> Iterator[LayerPlan]:
+                    coasted: Callable[[list[Path]], np.ndarray] | None = None,
+                    moves: Callable[[SetState], bool] | None = None) -> Iterator[LayerPlan]:
     """Move every :class:`SetState` ``distance_mm`` of extruded path length earlier.
 
     Args:
@@ -52,6 +53,9 @@ def apply_lookahead(plans: Iterable[LayerPlan], distance_mm: float,
         coasted: per layer, the length (mm) at the end of each of its paths that the writer
             will coast (:func:`fgslice.planning.coasting.coasted_lengths`): it extrudes
             nothing, so it does not count.
+        moves: which changes move (called once per change, in order; None: all); the
+            others keep their places, e.g. a toolchanger's changes into and out of its
+            support tool (:func:`fgslice.toolpaths.support_state.pinned_changes`).
 
     Yields:
         The same layers with state changes moved (and paths split where they land).
@@ -63,7 +67,8 @@ def apply_lookahead(plans: Iterable[LayerPlan], distance_mm: float,
     if distance_mm == 0:
         yield from plans
         return
-    yield from shift_changes(plans, float(distance_mm), lambda path: 1.0, coasted=coasted)
+    yield from shift_changes(plans, float(distance_mm), lambda path: 1.0, moves=moves, coasted=coasted,
+                             barrier=True)
 
 
 def apply_time_lead(
@@ -175,14 +180,17 @@ def shift_changes(
     rate_of: Callable[[Path], float],
     moves: Callable[[SetState], bool] | None = None,
     coasted: Callable[[list[Path]], np.ndarray] | None = None,
+    barrier: bool = False,
 ) -> Iterator[LayerPlan]:
     """Place each SetState ``lead`` earlier in the cumulative measure ``sum(length * rate)``
     (``rate_of(path)`` per mm); with ``moves``, only the changes it accepts move, the
-    others keep their places; with ``coasted``, each path's measure leaves out the
-    length the writer coasts at its end (``coasted(paths)``, mm per path of a layer)."""
+    others keep their places (with ``barrier``, no later change moves before them); with
+    ``coasted``, each path's measure leaves out the length the writer coasts at its end
+    (``coasted(paths)``, mm per path of a layer)."""
     pending: deque[_PendingLayer] = deque()
     waiting: list[SetState] = []  # clamped at the start of the print: before the next path
     total = 0.0
+    floor = 0.0  # where the last change that keeps its place is
     for plan in plans:
         layer = _PendingLayer(plan, end=total)
         pending.append(layer)
@@ -195,9 +203,10 @@ def shift_changes(
             if isinstance(step, SetState) and moves is not None and not moves(step):
                 layer.changes.extend((total, change) for change in [*waiting, step])
                 waiting = []
+                floor = total if barrier else floor
                 continue
             if isinstance(step, SetState):
-                position = max(total - lead, 0.0)
+                position = max(total - lead, floor)
                 if position < total - EPS:
                     target = next(p for p in pending if p.end > position + EPS)
                     target.changes.append((position, step))

@@ -32,7 +32,7 @@ Units: mm, mm^3, s, degC; compositions are fractions 0-1.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -91,12 +91,18 @@ class PurgeSizer:
         bin_size: the palette bin (fraction) the default tolerance is a tenth of.
         material_of: with temperature states, the material color (row of ``centers``) of
             each state the plans name; None when the plans name material colors.
+        support_tool: the color of a toolchanger's support tool (no row of ``centers``):
+            a change to it purges as one across the whole range (its own prime), a change
+            from it back to a part tool purges nothing (that nozzle holds its own filament,
+            the part's state did not change); None without one. A support mix is a row of
+            ``centers`` instead (:meth:`with_support`).
     """
 
     settings: Settings
     centers: np.ndarray
     bin_size: float
     material_of: np.ndarray | None = None
+    support_tool: int | None = None
     _made: dict = field(default_factory=dict, repr=False)
 
     @classmethod
@@ -113,6 +119,16 @@ class PurgeSizer:
         :class:`~fgslice.slicing.states.StatePalette`, whose states it maps to them)."""
         states = isinstance(palette, StatePalette)
         return cls.of(settings, material_palette(palette).centers, palette.material_of if states else None)
+
+    def with_support(self, state) -> "PurgeSizer":
+        """This sizer knowing the support's own state (a
+        :class:`~fgslice.toolpaths.support_state.SupportState`): its mix as the row of its
+        color, or its tool (see ``support_tool``)."""
+        if not state.own:
+            return self
+        if state.tool is not None:
+            return replace(self, support_tool=state.color, _made={})
+        return replace(self, centers=np.vstack([self.centers, state.fractions]), _made={})
 
     def material(self, color: int | None) -> int | None:
         """The material color (row of :attr:`centers`) of a state the plans name."""
@@ -143,7 +159,7 @@ class PurgeSizer:
         """Size of a change between two colors: half the L1 distance of their centers, or
         the difference of their temperatures (degC) for the temperature dialect; from
         ``old = None`` (unknown), the whole range."""
-        if old is None:
+        if old is None or self.support_tool in (old, new):
             return self.full_range
         return 0.5 * float(np.abs(self.centers[new] - self.centers[old]).sum()) * self.full_range
 
@@ -176,7 +192,7 @@ class PurgeSizer:
         :class:`~fgslice.slicing.states.StatePalette`)."""
         s = self.settings
         old, new = self.material(old), self.material(new)
-        if old == new:
+        if old == new or (old is not None and old == self.support_tool):
             return 0.0
         if not self.model:
             return purge_length(s.melt_volume_mm3, s.bead_width, height)

@@ -184,6 +184,8 @@ def _palette_colors(printout: Printout, index: np.ndarray, tools: bool = False) 
         valid = known & (index < palette.size)
         out[valid] = mix_rgba(palette.centers[index[valid]], materials_rgba(printout.materials))
         labels = {int(c): fraction_label(palette.centers[c], names) for c in np.unique(index[valid])}
+        # states outside the palette the header names (the support's tool): gray, with their label
+        labels.update({int(c): info.labels[int(c)] for c in np.unique(index[known & ~valid]) if int(c) in info.labels})
     else:
         from matplotlib import colormaps
 

@@ -15,7 +15,9 @@ from __future__ import annotations
 
 import numpy as np
 import shapely
-import shapely.affinity
+
+from fgslice.toolpaths.infill import scan_segments
+from fgslice.toolpaths.walls import ring_groups
 
 STEP_DEG = 15.0
 """Directions tried, degrees apart."""
@@ -30,32 +32,45 @@ ANCHORED_SHARE = 0.9
 def bridgeable(piece: shapely.Geometry, lower: shapely.Geometry, reach: float, w: float) -> bool:
     """Whether lines across ``piece`` (one overhang polygon) land on ``lower`` (the outline
     of the layer below) at both ends, in some direction (see the module); ``reach``: how
-    far the overhang's anchored edges lie from ``lower`` (mm)."""
+    far the overhang's anchored edges lie from ``lower`` (mm).
+
+    In the frame turned by ``-angle`` about the piece's centroid, direction ``angle``'s
+    lines run along X, one per ``w / LINES_PER_BEAD`` of the turned piece's height from
+    half a spacing above its lowest point (one line through its middle when it is lower
+    than that); the piece's rings cut them by a scanline pass
+    (:func:`fgslice.toolpaths.infill.scan_segments`), and every line end is tested against
+    ``lower`` (prepared in place) in one vectorized call."""
     if piece.is_empty or lower.is_empty:
         return False
-    carry = reach + w
-    cx, cy = shapely.centroid(piece).coords[0]
-    for angle in np.arange(0.0, 180.0, STEP_DEG):
-        turned = shapely.affinity.rotate(piece, -angle, origin=(cx, cy))
-        x0, y0, x1, y1 = turned.bounds
-        ys = np.arange(y0 + w / 2, y1, w / LINES_PER_BEAD)
-        if not len(ys):
-            ys = np.array([(y0 + y1) / 2])
-        lines = shapely.linestrings(np.stack([np.stack([np.full_like(ys, x0 - 1), ys], axis=1),
-                                              np.stack([np.full_like(ys, x1 + 1), ys], axis=1)], axis=1))
-        segments = shapely.get_parts(shapely.intersection(lines, turned))
-        segments = segments[shapely.get_type_id(segments) == 1]
-        if not len(segments):
-            continue
-        a = shapely.get_coordinates(shapely.get_point(segments, 0))
-        b = shapely.get_coordinates(shapely.get_point(segments, -1))
-        left, right, y = np.minimum(a[:, 0], b[:, 0]) - carry, np.maximum(a[:, 0], b[:, 0]) + carry, a[:, 1]
-        ends = shapely.affinity.rotate(shapely.MultiPoint(np.concatenate([np.stack([left, y], 1), np.stack([right, y], 1)])),
-                                       angle, origin=(cx, cy))
-        xy = shapely.get_coordinates(ends)
-        inside = shapely.contains_xy(lower, xy[:, 0], xy[:, 1])
-        both = inside[: len(y)] & inside[len(y):]
-        length = right - left - 2 * carry
-        if length[both].sum() >= ANCHORED_SHARE * length.sum():
-            return True
-    return False
+    carry, spacing = reach + w, w / LINES_PER_BEAD
+    c = np.array(shapely.centroid(piece).coords[0])
+    coords, ring, _ = ring_groups(piece)
+    coords = coords - c
+    turns = np.radians(np.arange(0.0, 180.0, STEP_DEG))
+    direction, left, right, offset = [], [], [], []
+    for i, angle in enumerate(turns):
+        u, n = np.array([np.cos(angle), np.sin(angle)]), np.array([-np.sin(angle), np.cos(angle)])
+        across = coords @ n
+        y0, y1 = across.min(), across.max()
+        first = y0 + spacing / 2 if y0 + spacing / 2 < y1 else (y0 + y1) / 2
+        shift = first - spacing / 2  # the lines at (j + 1/2) spacing of the shifted frame
+        _, x0, x1, y, _, _ = scan_segments(np.stack([coords @ u, across - shift], axis=1), ring, spacing, 0.0)
+        direction.append(np.full(len(y), i))
+        left.append(x0 - carry)
+        right.append(x1 + carry)
+        offset.append(y + shift)
+    direction, left, right, offset = map(np.concatenate, (direction, left, right, offset))
+    if not len(direction):
+        return False
+    u = np.stack([np.cos(turns[direction]), np.sin(turns[direction])], axis=1)
+    side = c + offset[:, None] * np.stack([-u[:, 1], u[:, 0]], axis=1)
+    xy = np.concatenate([side + left[:, None] * u, side + right[:, None] * u])
+    shapely.prepare(lower)
+    inside = shapely.contains_xy(lower, xy[:, 0], xy[:, 1])
+    both = inside[: len(direction)] & inside[len(direction):]
+    length = right - left - 2 * carry
+    count = len(turns)
+    anchored = np.bincount(direction, weights=np.where(both, length, 0.0), minlength=count)
+    total = np.bincount(direction, weights=length, minlength=count)
+    tried = np.bincount(direction, minlength=count) > 0  # directions whose lines meet the piece
+    return bool((anchored[tried] >= ANCHORED_SHARE * total[tried]).any())

@@ -66,7 +66,7 @@ def _rotate(xy: np.ndarray, angle_deg: float) -> np.ndarray:
     return xy @ np.array([[c, s], [-s, c]])
 
 
-def _scan_segments(coords: np.ndarray, ring: np.ndarray, spacing, min_length: float, group=None):
+def scan_segments(coords: np.ndarray, ring: np.ndarray, spacing, min_length: float, group=None):
     """Scanline clip of the global grid of horizontal lines against polygon rings.
 
     ``coords``/``ring`` are the ring vertices of one region or of many disjoint ones
@@ -114,7 +114,7 @@ def _links(containers, owner, line, x0, x1, y, ends, spacing, angle_deg: float) 
     is used once (shortest candidate wins).
 
     A link whose two ends lie on one boundary edge (``ends``, from
-    :func:`_scan_segments`) runs along that edge, :data:`INSIDE_TOLERANCE` inside it:
+    :func:`scan_segments`) runs along that edge, :data:`INSIDE_TOLERANCE` inside it:
     it is taken without a test, like a link along an edge that ``covers`` accepts
     thanks to that slack (on 3DBenchy's fills, 70 % of the candidates; of their 62,000,
     one passes within 1e-4 mm of the tip of a hole touching the edge, which ``covers``
@@ -214,7 +214,7 @@ def line_fill(regions, spacing, angle_deg: float, width: float, *, link: bool = 
         step, group = np.asarray(spacing, dtype=float)[ring_owner], ring_owner
     else:
         step, group = spacing, None
-    line, x0, x1, y, src, ends = _scan_segments(_rotate(coords, -angle_deg), ring, step, width, group)
+    line, x0, x1, y, src, ends = scan_segments(_rotate(coords, -angle_deg), ring, step, width, group)
     if len(line) == 0:
         return empty
     owner = ring_owner[src]

@@ -40,7 +40,8 @@ inside it lines ``support_spacing`` apart
 along X on every layer (the same grid, so they stack into walls; ``grid`` adds lines
 along Y), role SUPPORT; the interface with lines ``support_interface_spacing`` apart
 along Y, role SUPPORT_INTERFACE; neighbouring lines are linked into serpentines where
-the link lies inside the region. Their color is :func:`support_color`.
+the link lies inside the region. Their color is the support's state
+(:func:`fgslice.toolpaths.support_state.resolve_support_state`).
 """
 
 from __future__ import annotations
@@ -51,11 +52,11 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 
-from fgslice.errors import SettingsError
 from fgslice.settings import Settings
 from fgslice.toolpaths.bridgeable import bridgeable
 from fgslice.toolpaths.infill import line_fill, open_paths
 from fgslice.toolpaths.paths import Path, Role, bead_area
+from fgslice.toolpaths.support_state import CURRENT_STATE
 from fgslice.toolpaths.walls import bead_spacing, opening, ring_groups, split_rings
 
 SLIVER_MM = 0.005
@@ -68,10 +69,6 @@ CLOSING_MM = 2.0
 BRIDGE_EDGE_MM = 1.5
 """How far (at most ``support_expansion``) the support of a bridge's unanchored edge
 reaches beyond it, mm: PrusaSlicer's support margin."""
-
-CURRENT_STATE = -1
-"""Support color with ``support_state = current``: printed in whatever state is current."""
-
 
 @dataclass(frozen=True)
 class SupportLayer:
@@ -167,31 +164,75 @@ def plan_supports(outlines: list[shapely.Geometry], settings: Settings,
     carried = empty
     for j in range(n - 1, -1, -1):
         k = j + 1 + top
-        if k < n and not need[k].is_empty:
-            carried = shapely.union(carried, need[k])
-        if carried.is_empty:
+        new = need[k] if k < n and not need[k].is_empty else None
+        if new is None and carried.is_empty:
             continue
         if settings.support_to == "bed":
-            carried = shapely.difference(carried, below[j])
+            # what is carried keeps clear of every outline up to the layer above, hence up to
+            # this one: only the new overhang is cut (the column is the same object until then)
+            if new is not None:
+                carried = _without_crumbs(shapely.union(carried, shapely.difference(new, below[j])), w)
         else:
-            carried = shapely.difference(carried, shapely.union_all(keep_out[max(0, j - bottom) : j + 1]))
-        carried = _without_crumbs(carried, w)
+            carried = carried if new is None else _without_crumbs(shapely.union(carried, new), w)
+            carried = _minus(carried, shapely.union_all(keep_out[max(0, j - bottom) : j + 1]), w)
         regions[j] = carried if blockers is None else _without_crumbs(shapely.difference(carried, blockers[j]), w)
+    return _split_interface(regions, settings.support_interface_layers, w)
+
+
+def _minus(region: shapely.Geometry, cut: shapely.Geometry, w: float) -> shapely.Geometry:
+    """``region - cut`` without crumbs, overlaying only the polygons of ``region`` that meet
+    ``cut`` (the others are kept as they are)."""
+    parts = shapely.get_parts(region)
+    if not len(parts):
+        return region
+    shapely.prepare(cut)
+    hit = shapely.intersects(parts, cut)
+    if not hit.any():
+        return region
+    cut_parts = shapely.get_parts(shapely.difference(_polygons(parts[hit]), cut))
+    return _without_crumbs(_polygons(np.concatenate([parts[~hit], cut_parts])), w)
+
+
+def _polygons(parts: np.ndarray) -> shapely.Geometry:
+    """The polygons among ``parts`` (disjoint but at points: parts of valid polygonal
+    regions, or of their overlays) as one geometry, without a union."""
+    parts = parts[shapely.get_type_id(parts) == 3]
+    if not len(parts):
+        return shapely.Polygon()
+    return parts[0] if len(parts) == 1 else shapely.multipolygons(parts)
+
+
+def _split_interface(regions: list[shapely.Geometry], count: int, w: float) -> list[SupportLayer]:
+    """Each layer's support split into body and interface: what is not support on every
+    one of the ``count`` layers above.
+
+    A point of layer ``j``'s support missing from one of the layers above is missing
+    first from some layer ``j + i + 1`` (``i < count``) while on layer ``j + i``: it lies
+    in ``changed[j + i]``, what layer ``j + i``'s support has that the next layer's has
+    not. So the interface is layer ``j``'s support within the union of those ``count``
+    differences (small areas), computed once per layer; a run of layers carrying one
+    unchanged column (the same region object) has none."""
+    n, empty = len(regions), shapely.Polygon()
+    changed = np.full(n, empty, dtype=object)
+    differ = [j for j in range(n - 1) if regions[j] is not regions[j + 1] and not regions[j].is_empty]
+    if differ:
+        index = np.array(differ)
+        changed[index] = shapely.difference(np.asarray(regions, dtype=object)[index],
+                                            np.asarray(regions, dtype=object)[index + 1])
     layers = []
-    for j in range(n):
-        above = regions[j + 1 : j + 1 + settings.support_interface_layers]
-        if regions[j].is_empty:
+    for j, region in enumerate(regions):
+        above = regions[j + 1 : j + 1 + count]
+        if region.is_empty:
             layers.append(SupportLayer(empty, empty))
-            continue
-        if not settings.support_interface_layers:
-            covered = regions[j]
-        elif len(above) < settings.support_interface_layers or any(r.is_empty for r in above):
-            covered = empty
+        elif not count:
+            layers.append(SupportLayer(region, empty))
+        elif len(above) < count or any(r.is_empty for r in above):
+            layers.append(SupportLayer(empty, region))
         else:
-            covered = shapely.intersection_all(above)
-        body = shapely.intersection(regions[j], covered)
-        interface = shapely.difference(regions[j], covered)
-        layers.append(SupportLayer(_without_crumbs(body, w), _without_crumbs(interface, w)))
+            fresh = shapely.union_all(changed[j : j + count])
+            interface = empty if fresh.is_empty else shapely.intersection(region, fresh)
+            body = region if interface.is_empty else _minus(region, interface, w)
+            layers.append(SupportLayer(body, _without_crumbs(interface, w)))
     return layers
 
 
@@ -200,32 +241,22 @@ def _without_crumbs(region: shapely.Geometry, w: float) -> shapely.Geometry:
     if region.is_empty:
         return region
     parts = shapely.get_parts(region)
-    parts = parts[shapely.area(parts) >= w * w]
-    return shapely.union_all(parts) if len(parts) else shapely.Polygon()
+    big = shapely.area(parts) >= w * w
+    if big.all() and shapely.get_type_id(region) in (3, 6):  # a polygon or multipolygon without crumbs
+        return region
+    parts = parts[big]
+    if not len(parts):
+        return shapely.Polygon()
+    # the parts of a valid (multi)polygon are disjoint polygons: no union needed
+    return parts[0] if len(parts) == 1 else shapely.multipolygons(parts)
 
 
-def check_support_state(settings: Settings, palette_size: int) -> None:
-    """A SettingsError when ``support_state`` names a color the palette lacks."""
-    state = settings.support_state
-    if settings.support and state != "current" and not 0 <= state < palette_size:
-        raise SettingsError(
-            f"support_state = {state} is not a color of this {palette_size}-color palette",
-            hint=f"--set support_state=current, or a color from 0 to {palette_size - 1}",
-        )
-
-
-def support_color(settings: Settings) -> int:
-    """The palette color support is printed in: ``support_state``, or
-    :data:`CURRENT_STATE` (whatever state the nozzle is in) for ``current``."""
-    return CURRENT_STATE if settings.support_state == "current" else int(settings.support_state)
-
-
-def support_paths(layer: SupportLayer, settings: Settings) -> list[Path]:
-    """The support lines of one layer (see the module)."""
+def support_paths(layer: SupportLayer, settings: Settings, color: int = CURRENT_STATE) -> list[Path]:
+    """The support lines of one layer (see the module), of ``color`` (the support's state,
+    :mod:`.support_state`)."""
     if layer.empty:
         return []
     w, h = settings.bead_width, settings.layer_height
-    color = support_color(settings)
     out: list[Path] = []
     angles = (0.0, 90.0) if settings.support_pattern == "grid" else (0.0,)
     if not layer.body.is_empty:
