@@ -39,7 +39,7 @@ from scipy.spatial import QhullError, Voronoi
 
 from fgslice.toolpaths.paths import Path, Role, bead_area
 from fgslice.toolpaths.slivers import MIN_SLIVER_AREA
-from fgslice.toolpaths.walls import offset, opening
+from fgslice.toolpaths.walls import offset
 
 STRAIGHT_FILL = 0.7
 """A core filling at least this share of its minimum rotated rectangle is printed as one
@@ -118,78 +118,97 @@ def thin_beads(regions, eroded, colors, settings, role: Role) -> ThinBeads:
     polygon = (shapely.get_type_id(pieces) == shapely.GeometryType.POLYGON) & (shapely.area(pieces) > 0)
     pieces, color = pieces[polygon], colors[lossy][of[polygon]]
     smallest, narrowest = feature_limits(settings)
-    cores, core_of = shapely.get_parts(opening(pieces, smallest / 2), return_index=True)
-    keep = (shapely.get_type_id(cores) == shapely.GeometryType.POLYGON) & (shapely.area(cores) > 0)
-    cores, core_of = cores[keep], core_of[keep]
+    cores, core_of = _cores(pieces, smallest)
     printed = np.zeros(len(pieces), dtype=bool)
     printed[core_of] = True
     dropped = pieces[~printed]
-    feature = (shapely.area(dropped) >= MIN_DROPPED_AREA) & (_long_side(dropped) >= w)
+    feature = (shapely.area(dropped) >= MIN_DROPPED_AREA) & (_rectangles(dropped)[2] >= w)
     # each core prints its share of its piece's area
     core_area = shapely.area(cores)
     share = core_area / np.bincount(core_of, core_area, minlength=len(pieces))[core_of]
     volume = share * shapely.area(pieces)[core_of] * h
-    paths = []
-    for core, vol, col in zip(cores.tolist(), volume.tolist(), color[core_of].tolist()):
-        for points, closed, width in _centre_lines(core, vol, smallest, narrowest, settings):
-            paths.append(Path(points, role, col, width, h, closed=closed))
+    core_color = color[core_of]
+    centre, direction, long, short = _rectangles(cores)
+    straight = (core_area >= STRAIGHT_FILL * long * short) | (long <= 0)
+    segments, widths = _long_axes(centre[straight], direction[straight], long[straight], short[straight],
+                                  volume[straight], narrowest, w, h)
+    paths = [Path(points, role, col, width, h)
+             for points, width, col in zip(segments, widths, core_color[straight].tolist())]
+    for k in np.flatnonzero(~straight).tolist():
+        lines = _medial_axis(cores[k], smallest, settings.gcode_resolution)
+        length = sum(line.length for line in lines)
+        if length <= 0:
+            segment, width = _long_axes(centre[k:k + 1], direction[k:k + 1], long[k:k + 1], short[k:k + 1],
+                                           volume[k:k + 1], narrowest, w, h)
+            paths.append(Path(segment[0], role, int(core_color[k]), width[0], h))
+            continue
+        width = float(_width_for(volume[k] / length, narrowest, w, h))
+        for line in lines:
+            points = shapely.get_coordinates(line)
+            paths.append(Path(points[:-1] if line.is_ring else points, role, int(core_color[k]), width, h,
+                              closed=line.is_ring))
     return ThinBeads(paths, float(shapely.area(pieces[printed]).sum()), float(shapely.area(dropped[feature]).sum()))
 
 
-def _long_side(geoms: np.ndarray) -> np.ndarray:
-    """The longer side of each geometry's minimum rotated rectangle, mm."""
-    sides = _rectangle_sides(shapely.minimum_rotated_rectangle(geoms))
-    return np.max(sides, axis=1) if len(sides) else np.empty(0)
+def _cores(pieces: np.ndarray, smallest: float) -> tuple[np.ndarray, np.ndarray]:
+    """The parts of ``pieces`` at least ``smallest`` wide and the piece of each: a piece
+    whose erosion by ``smallest / 2`` is one polygon is its own core (its bits narrower
+    than ``smallest``, a sharp tip, go with it); one eroded into several is opened."""
+    eroded = offset(pieces, -smallest / 2)
+    count = np.where(shapely.is_empty(eroded), 0, shapely.get_num_geometries(eroded))
+    whole = np.flatnonzero(count == 1)
+    split = np.flatnonzero(count > 1)
+    parts, part_of = shapely.get_parts(offset(eroded[split], smallest / 2), return_index=True)
+    keep = (shapely.get_type_id(parts) == shapely.GeometryType.POLYGON) & (shapely.area(parts) > 0)
+    cores = np.concatenate([pieces[whole], parts[keep]])
+    return cores, np.concatenate([whole, split[part_of[keep]]])
 
 
-def _rectangle_sides(rectangles: np.ndarray) -> np.ndarray:
-    """``(N, 2)`` lengths of two adjacent sides of each rectangle (degenerate ones: 0)."""
-    out = np.zeros((len(rectangles), 2))
-    for k, rectangle in enumerate(rectangles.tolist()):
-        coords = shapely.get_coordinates(rectangle)
-        if len(coords) >= 4:
-            out[k] = np.hypot(*(coords[1:3] - coords[:2]).T)
-    return out
+def _rectangles(geoms: np.ndarray):
+    """``(centre (N, 2), direction (N, 2), long (N,), short (N,))`` of each geometry's
+    minimum rotated rectangle: its centre, the unit vector along its longer side, and its
+    sides' lengths, mm (0 for a degenerate one)."""
+    n = len(geoms)
+    centre, direction, sides = np.zeros((n, 2)), np.tile([1.0, 0.0], (n, 1)), np.zeros((n, 2))
+    if n == 0:
+        return centre, direction, sides[:, 0], sides[:, 1]
+    rectangles = shapely.minimum_rotated_rectangle(geoms)
+    box = (shapely.get_type_id(rectangles) == shapely.GeometryType.POLYGON) & (shapely.get_num_coordinates(rectangles) == 5)
+    coords = shapely.get_coordinates(rectangles[box]).reshape(-1, 5, 2)
+    a, b = coords[:, 1] - coords[:, 0], coords[:, 2] - coords[:, 1]
+    la, lb = np.hypot(*a.T), np.hypot(*b.T)
+    along = np.where((la >= lb)[:, None], a, b)
+    centre[box] = coords[:, :4].mean(axis=1)
+    sides[box] = np.column_stack([np.maximum(la, lb), np.minimum(la, lb)])
+    direction[box] = along / np.maximum(sides[box, :1], 1e-300)
+    flat = ~box  # a segment or a point: its extent
+    if flat.any():
+        bounds = shapely.bounds(geoms[flat])
+        centre[flat] = (bounds[:, :2] + bounds[:, 2:]) / 2
+        span = bounds[:, 2:] - bounds[:, :2]
+        sides[flat, 0] = np.hypot(*span.T)
+        direction[flat] = np.where(sides[flat, :1] > 0, span / np.maximum(sides[flat, :1], 1e-300), [1.0, 0.0])
+    return centre, direction, sides[:, 0], sides[:, 1]
 
 
-def _centre_lines(core, volume: float, smallest: float, narrowest: float, settings):
-    """``[(points, closed, width)]``: the bead(s) printing ``core`` (module docstring, 3-4)
-    with ``volume`` mm^3."""
-    w, h = settings.bead_width, settings.layer_height
-    rectangle = shapely.minimum_rotated_rectangle(core)
-    if core.area >= STRAIGHT_FILL * rectangle.area:
-        return [_long_axis(rectangle, volume, narrowest, w, h)]
-    lines = _medial_axis(core, smallest, settings.gcode_resolution)
-    length = sum(line.length for line in lines)
-    if length <= 0:
-        return [_long_axis(rectangle, volume, narrowest, w, h)]
-    width = _width_for(volume / length, narrowest, w, h)
-    return [(shapely.get_coordinates(line)[:-1] if line.is_ring else shapely.get_coordinates(line), line.is_ring, width)
-            for line in lines]
-
-
-def _width_for(section: float, narrowest: float, w: float, h: float) -> float:
+def _width_for(section, narrowest: float, w: float, h: float):
     """The bead width (mm) of cross-section ``section`` (mm^2) by the capsule model,
     clamped to ``[narrowest, w]``."""
-    return float(np.clip(section / h + h * (1 - np.pi / 4), narrowest, w))
+    return np.clip(np.asarray(section) / h + h * (1 - np.pi / 4), narrowest, w)
 
 
-def _long_axis(rectangle, volume: float, narrowest: float, w: float, h: float):
-    """One segment along the long axis of a minimum rotated ``rectangle``, centred in it,
-    ending half its short side from its ends, and its width; a segment too short to hold
+def _long_axes(centre, direction, long, short, volume, narrowest: float, w: float, h: float):
+    """``(segments (N, 2, 2), widths)`` (widths a list, mm): one segment along the long axis of
+    each minimum rotated rectangle, centred in it, ending half its short side from its
+    ends, and its width; a segment shorter than the short side (a dot) too short to hold
     ``volume`` even a bead wide is lengthened to hold it (at most the rectangle's length)."""
-    coords = shapely.get_coordinates(rectangle)
-    centre = coords[:4].mean(axis=0) if len(coords) >= 4 else coords.mean(axis=0)
-    a, b = (coords[1] - coords[0], coords[2] - coords[1]) if len(coords) >= 4 else (np.zeros(2), np.zeros(2))
-    along, across = (a, b) if np.hypot(*a) >= np.hypot(*b) else (b, a)
-    long, short = float(np.hypot(*along)), float(np.hypot(*across))
-    direction = along / long if long > 0 else np.array([1.0, 0.0])
-    length = max(long - short, 0.0)
-    width = _width_for(volume / length, narrowest, w, h) if length > 0 else w
-    if length < short and volume > bead_area(width, h) * length:  # a dot
-        length = min(volume / bead_area(width, h), max(long, 1e-3))
-    half = direction * length / 2
-    return np.array([centre - half, centre + half]), False, width
+    length = np.maximum(long - short, 0.0)
+    width = np.where(length > 0, _width_for(volume / np.maximum(length, 1e-300), narrowest, w, h), w)
+    section = bead_area(width, h)
+    dot = (length < short) & (volume > section * length)
+    length = np.where(dot, np.minimum(volume / section, np.maximum(long, 1e-3)), length)
+    half = direction * (length / 2)[:, None]
+    return np.stack([centre - half, centre + half], axis=1), width.tolist()
 
 
 def _medial_axis(core, smallest: float, tolerance: float) -> list[shapely.LineString]:
