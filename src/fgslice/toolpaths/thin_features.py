@@ -9,9 +9,11 @@ bead when it is at least ``min_feature_size`` wide, and dropped when narrower:
 1. the *narrow pieces* of a region are the region minus its opening by ``w / 2`` (what
    the usual inset leaves out), computed only where the opening loses at least
    :data:`~fgslice.toolpaths.slivers.MIN_SLIVER_AREA` (a wide region gets nothing);
-2. a piece's *cores* are its opening by ``min_feature_size / 2``: the parts at least
-   that wide. A piece without a core is dropped (counted as a dropped feature when it
-   is at least :data:`MIN_DROPPED_AREA` and a bead long, not a corner's tip);
+2. a piece's *cores* are its parts at least ``min_feature_size`` wide: the piece itself
+   when its erosion by ``min_feature_size / 2`` is one polygon, the parts of its opening
+   by that much when the erosion splits it. A piece without a core is dropped (counted
+   as a dropped feature when it is at least :data:`MIN_DROPPED_AREA` and a bead long,
+   not a corner's tip);
 3. each core becomes a centre line: a core that fills most of its minimum rotated
    rectangle (a straight strip, a strut's elliptic section, a dot) gets the segment
    along the rectangle's long axis, ending half the rectangle's short side from its
