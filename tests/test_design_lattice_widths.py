@@ -1,6 +1,7 @@
 """Lattices thinner than a bead: OpenVCAD's strut radius read as a radius (volume against
-its analytic bounds) and a design made only of such struts refused before slicing, with
-the struts' width (fgslice.design.lattice_widths)."""
+its analytic bounds) and a design made only of struts too thin to print (narrower than
+min_feature_size, or than a bead without thin features) refused before slicing, with the
+struts' width (fgslice.design.lattice_widths)."""
 
 from __future__ import annotations
 
@@ -72,16 +73,30 @@ def test_the_custom_cell_reads_its_radius_as_a_radius(tmp_path):
     np.testing.assert_allclose(design.bounds(), ((-0.6,) * 3, (0.6,) * 3))
 
 
-def settings():
-    return load_settings(None, {"colors": "1", "strategy": "2", "thumbnails": ""})
+def settings(**overrides):
+    return load_settings(None, {"colors": "1", "strategy": "2", "thumbnails": "", **overrides})
 
 
 def test_a_custom_cell_thinner_than_a_bead_is_refused_with_its_width(tmp_path):
+    """Without thin features, 0.2 mm struts are narrower than a bead: nothing prints."""
     design = script(tmp_path, CUSTOM_CELL, radius=0.1)
     with pytest.raises(SliceError) as refused:
-        slice_to_gcode(design, settings(), tmp_path / "cell.gcode", jobs=1)
+        slice_to_gcode(design, settings(thin_features="false"), tmp_path / "cell.gcode", jobs=1)
     assert "struts are 0.2 mm across (radius 0.1 mm)" in refused.value.message
-    assert "radius of at least 0.2 mm" in refused.value.hint
+    assert "bead_width = 0.4 mm" in refused.value.message
+    assert "radius of at least 0.2 mm" in refused.value.hint and "thin_features" in refused.value.hint
+    assert not (tmp_path / "cell.gcode").exists()
+
+
+def test_a_custom_cell_below_min_feature_size_is_refused_naming_it(tmp_path):
+    """With thin features (the default), struts narrower than min_feature_size (25 % of
+    the 0.4 mm nozzle: 0.1 mm) are refused, naming the setting."""
+    design = script(tmp_path, CUSTOM_CELL, radius=0.02)
+    with pytest.raises(SliceError) as refused:
+        slice_to_gcode(design, settings(), tmp_path / "cell.gcode", jobs=1)
+    assert "struts are 0.04 mm across (radius 0.02 mm)" in refused.value.message
+    assert "min_feature_size = 25% (0.1 mm)" in refused.value.message
+    assert "radius of at least 0.05 mm" in refused.value.hint and "lower min_feature_size" in refused.value.hint
     assert not (tmp_path / "cell.gcode").exists()
 
 
@@ -89,7 +104,8 @@ def test_a_thin_tiled_fill_is_refused_before_it_is_sliced(tmp_path, monkeypatch)
     design = script(tmp_path, TEXT_FILL, radius=0.1, root="pv.Intersection(False, [pv.Tile(cell), part])")
     monkeypatch.setattr("fgslice.pipeline._prepare_for_workers", lambda: pytest.fail("the fill went on to be sliced"))
     with pytest.raises(SliceError, match=r"struts are 0\.2 mm across"):
-        slice_to_gcode(design, settings(), tmp_path / "fill.gcode", jobs=1)
+        slice_to_gcode(design, settings(thin_features="false"), tmp_path / "fill.gcode", jobs=1)
+    assert thin_lattice(design.root, 0.1, dots=True) is None  # at least min_feature_size: it prints
 
 
 @pytest.mark.parametrize("radius, root, thin", [
@@ -109,10 +125,11 @@ def test_only_designs_made_of_thin_struts_are_thin(tmp_path, radius, root, thin)
 
 def test_the_check_agrees_with_what_the_slicer_prints(tmp_path, monkeypatch):
     """Struts of radius 0.19 mm (0.38 mm across) meet in junctions just over a bead wide:
-    the check calls them thin, and sliced anyway no toolpath covers any of them."""
+    without thin features the check calls them thin, and sliced anyway no toolpath
+    covers any of them."""
     small = "pv.Intersection(False, [pv.Tile(cell), pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(6, 6, 3), red)])"
     design = script(tmp_path, TEXT_FILL, radius=0.19, root=small)
     assert thin_lattice(design.root, 0.4).width == pytest.approx(0.38)
     monkeypatch.setattr("fgslice.pipeline.check_lattice_widths", lambda *args: None)
     with pytest.raises(SliceError, match="narrower than a bead"):
-        slice_to_gcode(design, settings(), tmp_path / "small.gcode", jobs=1)
+        slice_to_gcode(design, settings(thin_features="false"), tmp_path / "small.gcode", jobs=1)

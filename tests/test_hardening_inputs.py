@@ -82,9 +82,16 @@ def test_function_nan_everywhere_is_refused_and_writes_nothing(tmp_path, express
 
 
 def test_pin_thinner_than_a_bead_is_refused(tmp_path):
-    result = run("slice", write(tmp_path, "cylinder(0.15, 10);"), "-o", tmp_path / "pin.gcode")
+    """A 0.3 mm pin prints as single beads with thin features (the default) and is refused
+    without them; a 0.08 mm pin, under min_feature_size, is refused naming both settings."""
+    design = write(tmp_path, "cylinder(0.15, 10);")
+    result = run("slice", design, "-o", tmp_path / "pin.gcode", "--set", "thin_features=false")
     assert result.exit_code == 2 and "narrower than a bead" in result.output and "bead_width" in result.output
     assert not (tmp_path / "pin.gcode").exists()
+    assert run("slice", design, "-o", tmp_path / "pin.gcode").exit_code == 0
+    result = run("slice", write(tmp_path, "cylinder(0.04, 10);"), "-o", tmp_path / "needle.gcode")
+    assert result.exit_code == 2 and "bead_width" in result.output and "min_feature_size" in result.output
+    assert not (tmp_path / "needle.gcode").exists()
 
 
 def test_mesh_of_zero_area_triangles_is_refused(tmp_path):

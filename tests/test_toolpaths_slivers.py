@@ -103,8 +103,13 @@ def test_a_tail_hanging_from_its_own_face_only_stays_with_it():
     given, area = give_slivers(faces, W)
     assert area == 0.0 and given[0] is faces[0]
     outline = shapely.MultiPolygon([body.union(other)])
-    lp = strategy2.layer_paths(LayerRegions(0, H, H, outline, faces), Settings(colors=2))
+    lp = strategy2.layer_paths(LayerRegions(0, H, H, outline, faces), Settings(colors=2, thin_features=False))
     assert lp.uncovered_mm2 == pytest.approx(3.0, rel=0.05)
+    # with thin features, one bead of its own color along it
+    lp = strategy2.layer_paths(LayerRegions(0, H, H, outline, faces), Settings(colors=2))
+    tail = [p for p in lp.paths if p.points[:, 0].min() > 20]
+    assert lp.uncovered_mm2 < 1e-6 and len(tail) == 1 and tail[0].color == 0
+    np.testing.assert_allclose(tail[0].points[:, 1], 5.15, atol=1e-6)
 
 
 def test_a_layer_whose_slivers_are_under_the_share_keeps_them():

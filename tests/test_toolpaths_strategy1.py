@@ -192,9 +192,10 @@ def test_short_piece_quantile_equals_numpy_quantile():
 
 
 def test_uncovered_area_is_what_no_bead_fits_in():
+    """Without thin features, a fin narrower than a bead is left unprinted and reported."""
     fin = shapely.box(60, 10, 70, 10.3)  # 10 mm long, 0.3 mm thick: narrower than a bead
     outline = shapely.MultiPolygon([plate().geoms[0].union(fin)])
-    (lp, _), _ = run(Settings(strategy=1, walls=2, infill_density=20), outline=outline)
+    (lp, _), _ = run(Settings(strategy=1, walls=2, infill_density=20, thin_features=False), outline=outline)
     assert lp.uncovered_mm2 == pytest.approx(uncovered_area(outline, W), rel=1e-9)
     assert lp.uncovered_mm2 == pytest.approx(10 * 0.3, rel=0.05)
 

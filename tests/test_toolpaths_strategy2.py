@@ -111,10 +111,11 @@ def test_faces_keep_their_colors_and_stay_inside_them():
 
 
 def test_narrow_parts_reported_uncovered():
+    """Without thin features, a part narrower than a bead is left unprinted and reported."""
     body = shapely.box(0, 0, 20, 20)
     sliver = shapely.box(20, 5, 30, 5.3)  # 0.3 mm wide: narrower than a bead
     outline = shapely.MultiPolygon([shapely.union_all([body, sliver])])
-    lp = strategy2.layer_paths(LayerRegions(0, H, H, outline, (outline,)), Settings())
+    lp = strategy2.layer_paths(LayerRegions(0, H, H, outline, (outline,)), Settings(thin_features=False))
     assert lp.uncovered_mm2 == pytest.approx(3.0, rel=0.05)
     pts = np.vstack([p.points for p in lp.paths])
     assert not np.any(pts[:, 0] > 20.1)

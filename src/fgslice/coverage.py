@@ -83,7 +83,8 @@ def check_coverage(section_mm3: float, section_mm2: float, part_mm3: float, unco
         raise SliceError(
             f"nothing to print: the part ({section_mm3:.3g} mm^3) is narrower than a bead "
             f"(bead_width = {bead_width:g} mm) everywhere",
-            hint="lower bead_width (with a smaller nozzle), or scale the part up",
+            hint="lower bead_width (with a smaller nozzle), or scale the part up; with thin_features on, "
+                 "parts at least min_feature_size wide print as single beads (lower min_feature_size)",
         )
     warnings = []
     if strategy == 2 and abs(part_mm3 - section_mm3) > VOLUME_TOLERANCE * section_mm3:

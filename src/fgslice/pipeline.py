@@ -80,6 +80,7 @@ from fgslice.toolpaths.seams import place_seams
 from fgslice.toolpaths.skirt import skirt_paths
 from fgslice.toolpaths.support_state import SupportState, layer_sequence, pinned_changes, resolve_support_state
 from fgslice.toolpaths.supports import SupportLayer, plan_supports, support_paths, support_volume
+from fgslice.toolpaths.thin_features import dropped_warning
 from fgslice.toolpaths.walls import simplify_outline
 
 
@@ -130,6 +131,7 @@ class LayerResult:
             strategy 2 or a layer without cut pieces).
         uncovered_mm2: area narrower than a bead that no path covers, mm^2.
         reassigned_mm2: strategy 2's face area given to a neighbouring color, mm^2.
+        thin_dropped_mm2: features narrower than ``min_feature_size`` left out, mm^2.
         colors: number of palette colors the layer's paths use.
         commanded: the toolpaths' attribute ranges (:attr:`LayerPaths.commanded`).
         outline_mm2: the area of the layer's outline, mm^2.
@@ -141,6 +143,7 @@ class LayerResult:
     uncovered_mm2: float
     colors: int
     reassigned_mm2: float = 0.0
+    thin_dropped_mm2: float = 0.0
     commanded: dict[str, tuple[float, float]] = field(default_factory=dict)
     support_mm3: float = 0.0
     outline_mm2: float = 0.0
@@ -278,7 +281,8 @@ def _layer_result(job: SliceJob, index: int) -> LayerResult:
                        fixed_seams=s.seam_position != "nearest")
     prepare_bodies(plan, s, job.grading)
     result = LayerResult(plan=plan, short_pieces=short, uncovered_mm2=paths.uncovered_mm2, colors=colors,
-                         reassigned_mm2=paths.reassigned_mm2, commanded=paths.commanded,
+                         reassigned_mm2=paths.reassigned_mm2, thin_dropped_mm2=paths.thin_dropped_mm2,
+                         commanded=paths.commanded,
                          support_mm3=support_volume(support),
                          outline_mm2=float(regions.outline.area), part_mm3=part_mm3)
     if repeats is not None:
@@ -413,7 +417,7 @@ def slice_to_gcode(
     placement = place_design(design, settings)
     layers = layer_heights(design, settings)
     check_resources(design, settings, len(layers))
-    check_lattice_widths(design, settings.bead_width)
+    check_lattice_widths(design, settings)
     budget = check_budget(estimate_resources(design, settings, len(layers), jobs), settings, output)
     bed_center = np.array([settings.bed_x / 2, settings.bed_y / 2])
     job = SliceJob(design, settings, palette, placement, layers, bed_center,
@@ -453,6 +457,7 @@ def slice_to_gcode(
         supported = [0.0]  # support volume, mm^3
         covered = [0.0, 0.0, 0.0]  # the sections' volume and area, the part paths' volume
         reassigned = []  # (layer, mm^2) of the layers that gave slivers away
+        thin_dropped = []  # (layer, mm^2) of the layers that left thin features out
         commanded: dict[str, list[float]] = {}  # the toolpaths' attribute ranges
         total = len(layers)
 
@@ -467,6 +472,8 @@ def slice_to_gcode(
                 covered[2] += result.part_mm3
                 if result.reassigned_mm2 > 0:
                     reassigned.append((done - 1, result.reassigned_mm2))
+                if result.thin_dropped_mm2 > 0:
+                    thin_dropped.append((done - 1, result.thin_dropped_mm2))
                 for name, (low, high) in result.commanded.items():
                     seen = commanded.setdefault(name, [low, high])
                     seen[0], seen[1] = min(seen[0], low), max(seen[1], high)
@@ -548,7 +555,7 @@ def slice_to_gcode(
     stats.setdefault("warnings", [])
     stats["warnings"] = list(stats["warnings"]) + strategy1.summarize_short_pieces(
         short_records, total, settings.min_segment_mm, palette.size
-    ) + _sliver_warning(reassigned, total, settings) + coverage + budget
+    ) + _sliver_warning(reassigned, total, settings) + dropped_warning(thin_dropped, total, settings) + coverage + budget
     if settings.strategy == 2:  # whose sectioning built the whole meshes' tables already
         stats["warnings"] += mesh_warnings(design)
     if settings.strategy == 2 and attributes is not None and "infill_density" in attributes.names:
@@ -564,6 +571,7 @@ def slice_to_gcode(
             "uncovered_mm2": round(uncovered[0], 3),
             "support_mm3": round(supported[0], 3),
             "reassigned_mm2": round(sum(area for _, area in reassigned), 3),
+            "thin_dropped_mm2": round(sum(area for _, area in thin_dropped), 3),
             "purge_mm3": round(purge_stats.purge_mm3, 3) if tower else 0.0,
             "purge_g": round(purge_stats.purge_g, 4) if tower else 0.0,
             "purge_waste_share": round(purge_stats.waste_share, 4) if tower else 0.0,

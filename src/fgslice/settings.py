@@ -77,6 +77,9 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     seam_position: Annotated[Literal["nearest", "aligned", "rear", "random"], Meta(description="where closed loops (walls, concentric loops, skirt, brim) start: nearest the nozzle, at the sharpest corner, rearmost, or at random")] = "nearest"
     bridge_flow: Annotated[float, Meta(ge=10, le=200, description="bridge lines extrude this percent of a bead's volume")] = 100.0
     feature_order: Annotated[Literal["walls_first", "infill_first"], Meta(description="within a color, strategy 1")] = "walls_first"
+    thin_features: Annotated[bool, Meta(description="print parts narrower than a bead (at least min_feature_size wide) as one bead along their centre line, as PrusaSlicer's Arachne perimeters do")] = True
+    min_feature_size: Annotated[float | str, Meta(description="thin_features: narrower parts are dropped; mm, or percent of nozzle_diameter ('25%')")] = "25%"
+    min_bead_width: Annotated[float | str, Meta(description="thin_features: beads are at least this wide (at most bead_width); mm, or percent of nozzle_diameter ('85%')")] = "85%"
     min_segment_mm: Annotated[float, Meta(ge=0, le=1000, description="strategy 1 warns when color pieces are shorter, mm")] = 5.0
     zipper: Annotated[float, Meta(ge=0, le=100, description="zipper overlap band beta, percent of the gradient range")] = 0.0
     temperature_step: Annotated[float, Meta(ge=0.5, le=100, description="a temperature attribute is commanded in levels this far apart (multiples of it), C")] = 5.0
@@ -199,6 +202,9 @@ class Settings(_Fields, kw_only=True, frozen=True, forbid_unknown_fields=True):
             raise ValueError("retract_acceleration must be > 0 or 'auto'")
         if self.purge_tolerance != "auto" and self.purge_tolerance <= 0:
             raise ValueError("purge_tolerance must be > 0 or 'auto'")
+        from fgslice.toolpaths.thin_features import feature_limits
+
+        feature_limits(self)
         if self.arc_fitting != "disabled" and self.dialect == "template":
             raise ValueError("arc_fitting writes G2/G3 arcs, which the template dialect's machine may not know; "
                              "set arc_fitting = disabled, or use a Marlin, Klipper or RepRapFirmware dialect")

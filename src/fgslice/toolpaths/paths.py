@@ -103,6 +103,8 @@ class LayerPaths:
             than a bead (reported, never printed as garbage).
         reassigned_mm2: area of color faces too narrow for a bead given to a
             neighbouring color before filling (strategy 2), mm^2.
+        thin_dropped_mm2: area of the features narrower than ``min_feature_size`` that
+            no single bead prints (:mod:`~fgslice.toolpaths.thin_features`), mm^2.
         commanded: attribute name -> ``(min, max)`` of the values the layer's toolpaths
             were made for (strategy 1's ``infill_density``, percent); the writer reports
             the attributes it writes itself.
@@ -114,4 +116,5 @@ class LayerPaths:
     paths: list[Path] = field(default_factory=list)
     uncovered_mm2: float = 0.0
     reassigned_mm2: float = 0.0
+    thin_dropped_mm2: float = 0.0
     commanded: dict[str, tuple[float, float]] = field(default_factory=dict)

@@ -68,6 +68,8 @@ def give_slivers(faces, width: float) -> tuple[tuple[shapely.Geometry, ...], flo
         anything is the same object as before) and the area that changed color, mm^2.
     """
     faces = np.asarray(faces, dtype=object)
+    if np.count_nonzero(~shapely.is_empty(faces)) < 2:  # no neighbouring color to give to
+        return tuple(faces), 0.0
     parts, owner = shapely.get_parts(faces, return_index=True)
     polygon = shapely.get_type_id(parts) == shapely.GeometryType.POLYGON
     parts, owner = parts[polygon], owner[polygon]

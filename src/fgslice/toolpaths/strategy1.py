@@ -29,6 +29,7 @@ from fgslice.toolpaths.infill import uncovered_area
 from fgslice.toolpaths.paths import LayerPaths, Path, Role
 from fgslice.toolpaths.simplify import simplify_paths
 from fgslice.toolpaths.skins import fill_inner, split_inner
+from fgslice.toolpaths.thin_features import layer_thin_beads
 from fgslice.toolpaths.walls import make_walls
 from fgslice.toolpaths.zipper import tooth_length, zipper_labels
 
@@ -82,10 +83,11 @@ def layer_paths(
     sparse = density_regions(areas.sparse, field, regions.z_plane, settings.infill_density)
     raw = simplify_paths(walls.paths, settings.gcode_resolution) + fill_inner(areas, regions.index, settings, sparse)
     raw += bridge_paths(bridges, settings)
-    cut = cut_by_color(raw, field, palette, regions.z_plane, regions.index, settings)
     out = LayerPaths(regions.index, regions.z, regions.height)
-    out.paths = cut.paths
     out.uncovered_mm2 = uncovered_area(regions.outline, w, eroded=walls.eroded)
+    raw += layer_thin_beads(out, regions.outline, walls.eroded, 0, settings, Role.EXTERNAL_PERIMETER)
+    cut = cut_by_color(raw, field, palette, regions.z_plane, regions.index, settings)
+    out.paths = cut.paths
     if sparse:
         densities = [density for _, density in sparse]
         out.commanded["infill_density"] = (min(densities), max(densities))

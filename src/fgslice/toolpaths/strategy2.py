@@ -18,8 +18,9 @@ inner loops are SOLID_INFILL. Paths are simplified to ``gcode_resolution`` befor
 are returned. Parts of a face narrower than a bead are first given to a neighbouring
 color (:func:`~fgslice.toolpaths.slivers.give_slivers`, area in
 ``LayerPaths.reassigned_mm2``); what is still narrower than a bead after that (a part
-of the outline itself thinner than a bead) is not printed, its area is reported in
-``LayerPaths.uncovered_mm2``. Areas over air are cut out of the faces first and filled
+of the outline itself thinner than a bead) is printed as single beads in its face's color
+(:mod:`~fgslice.toolpaths.thin_features`, with ``thin_features`` on), or not printed, its
+area reported in ``LayerPaths.uncovered_mm2``. Areas over air are cut out of the faces first and filled
 with bridge lines across their short span (:mod:`~fgslice.toolpaths.bridges`).
 """
 
@@ -38,6 +39,7 @@ from fgslice.toolpaths.infill import dense_levels, solid_fill, uncovered_area
 from fgslice.toolpaths.paths import LayerPaths, Path, Role
 from fgslice.toolpaths.simplify import simplify_paths, simplify_polygons
 from fgslice.toolpaths.slivers import MIN_SLIVER_AREA, give_slivers
+from fgslice.toolpaths.thin_features import layer_thin_beads
 from fgslice.toolpaths.walls import bead_spacing, offset_polygons
 
 
@@ -72,13 +74,14 @@ def layer_paths(regions: LayerRegions, settings: Settings, bridges=None) -> Laye
             faces, parts, owner, eroded, exact = _eroded_faces(given, settings)
             uncovered = uncovered_area(parts[~exact], w, eroded=eroded[~exact])
     out.uncovered_mm2 = uncovered
+    thin = layer_thin_beads(out, parts[~exact], eroded[~exact], owner[~exact], settings, Role.PERIMETER)
     levels = None if settings.fill_pattern == "concentric" else 1
     loops = dense_levels(faces, w / 2, s, w, h, max_levels=levels, eroded=(eroded, owner))
     out.paths = simplify_paths(loops.paths(_roles(loops, regions.outline, w), loops.region, h), settings.gcode_resolution)
     if settings.fill_pattern == "rectilinear":
         angle = settings.infill_angle + 90.0 * (regions.index % 2)
         out.paths += solid_fill(loops.rest, angle, w, h, Role.SOLID_INFILL, loops.rest_region)
-    out.paths += bridged
+    out.paths += bridged + thin
     return out
 
 
