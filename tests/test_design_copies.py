@@ -10,7 +10,8 @@ import pytest
 import shapely
 
 import fgslice.design.statement_runs as statement_runs
-from fgslice.design.copies import Copies, union_polygons
+from fgslice.design.copies import Copies
+from fgslice.islands import MANY_ISLANDS, difference_by_islands, union_polygons
 from fgslice.design.language import parse_design
 from fgslice.design.nodes import walk
 from fgslice.errors import FgsliceError
@@ -136,3 +137,14 @@ def test_a_large_grid_of_cubes_has_its_analytic_volume():
     sections = design.sections([-0.2, 0.0, 0.2])
     assert [len(s.geoms) for s in sections] == [n] * 3
     assert sum(s.area for s in sections) * 0.2 == pytest.approx(n * 0.6**3, rel=1e-9)
+
+
+def test_difference_by_islands_is_the_difference():
+    rng = np.random.default_rng(7)
+    a = union_polygons(shapely.box(*(lambda x, y: (x, y, x + 0.8, y + 0.8))(*rng.uniform(0, 40, (2, 300)))))
+    b = union_polygons(shapely.buffer(shapely.points(rng.uniform(0, 40, (200, 2))), 0.6))
+    got = difference_by_islands(a, b)
+    assert got.is_valid
+    assert shapely.symmetric_difference(got, shapely.difference(a, b)).area < 1e-9
+    assert len(got.geoms) > MANY_ISLANDS
+    assert difference_by_islands(a, shapely.Polygon()).equals(a)

@@ -7,8 +7,8 @@ each copy (mm), all of one primitive kind and one material. Its distance is the 
 (the smallest copy's distance), computed for all the pairs of points and nearby copies
 in one vectorized call (:class:`~fgslice.design.union_index.BoxIndex`); its section at a
 height is every cut copy's outline, made in one call per kind and joined by
-:func:`union_polygons`. Distances, bounds and outlines are the same numbers as those of
-``Translate`` nodes over the primitives (the same arithmetic, vectorized).
+:func:`fgslice.islands.union_polygons`. Distances, bounds and outlines are the same
+numbers as those of ``Translate`` nodes over the primitives (the same arithmetic, vectorized).
 
 Copies of consecutive statements of one union only, with one material: a union's
 materials go to the first child containing a point, else the nearest, and every copy
@@ -22,6 +22,7 @@ import functools
 import numpy as np
 import shapely
 from fgslice.design import nodes
+from fgslice.islands import union_polygons
 
 SHAPES = ("box", "sphere", "cylinder")
 """Primitive kinds :class:`Copies` holds: ``box`` sizes ``(sx, sy, sz)``, ``sphere``
@@ -124,33 +125,3 @@ def _circles(cx: np.ndarray, cy: np.ndarray, radius: np.ndarray, spacing: float)
         coords = np.stack([radius[rows, None] * cos + cx[rows, None], radius[rows, None] * sin + cy[rows, None]], axis=-1)
         out[rows] = shapely.polygons(coords)
     return out
-
-
-def union_polygons(parts, valid: bool = False) -> shapely.MultiPolygon:
-    """The union of the polygonal parts of ``parts`` (polygons or multipolygons, as
-    :func:`shapely.union_all` would give it): a valid MultiPolygon of polygons of positive
-    area (an empty one without any), without overlaying the parts that touch nothing
-    else: only groups of parts that intersect or touch one another are united, a valid
-    part alone is kept as it is (a cascaded union of thousands of disjoint islands costs
-    seconds). ``valid``: the parts are known to be valid polygons (not checked again)."""
-    polys = shapely.get_parts(np.asarray(parts, dtype=object).ravel())
-    polys = polys[(shapely.get_type_id(polys) == 3) & ~shapely.is_empty(polys)]
-    n = len(polys)
-    a, b = shapely.STRtree(polys).query(polys, predicate="intersects")
-    other = a != b
-    alone = np.ones(n, dtype=bool) if valid else shapely.is_valid(polys)
-    merged = []
-    if other.any():
-        from scipy.sparse import coo_matrix
-        from scipy.sparse.csgraph import connected_components
-
-        edges = coo_matrix((np.ones(other.sum()), (a[other], b[other])), shape=(n, n))
-        _, label = connected_components(edges, directed=False)
-        alone &= np.bincount(label, minlength=n)[label] == 1
-        merged = [shapely.get_parts(shapely.union_all(polys[label == group])) for group in np.unique(label[~alone])]
-    elif not alone.all():
-        merged = [shapely.get_parts(shapely.union_all(polys[~alone]))]
-    kept = np.concatenate([polys[alone], *merged]) if merged else polys[alone]
-    kept = kept[(shapely.get_type_id(kept) == 3) & ~shapely.is_empty(kept)]
-    kept = kept[shapely.area(kept) > 0]
-    return shapely.multipolygons(kept) if len(kept) else shapely.MultiPolygon()

@@ -558,7 +558,7 @@ class Union(Node):
     @functools.cached_property
     def valid_sections(self) -> bool:
         """Many children or copies (:mod:`fgslice.design.copies`): their sections are joined
-        by :func:`~fgslice.design.copies.union_polygons`, which keeps islands apart as
+        by :func:`~fgslice.islands.union_polygons`, which keeps islands apart as
         they are and gives valid MultiPolygons."""
         return len(self.children) > 64 or any(c.kind == "copies" for c in self.children)
 
@@ -567,7 +567,7 @@ class Union(Node):
             return self.children[0].sections(zs, spacing)
         parts = np.array([c.sections(zs, spacing) for c in self.children], dtype=object)
         if self.valid_sections:
-            from fgslice.design.copies import union_polygons
+            from fgslice.islands import union_polygons
 
             return [union_polygons(parts[:, i]) for i in range(len(zs))]
         return list(shapely.union_all(parts, axis=0))
