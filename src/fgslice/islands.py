@@ -21,7 +21,8 @@ MANY_ISLANDS = 64
 def _polygons(parts) -> np.ndarray:
     """The non-empty polygons of ``parts`` (geometries or arrays of them), flattened."""
     polys = shapely.get_parts(np.asarray(parts, dtype=object).ravel())
-    polys = shapely.get_parts(polys)
+    if np.isin(shapely.get_type_id(polys), (4, 5, 6, 7)).any():  # collections inside collections
+        polys = shapely.get_parts(polys)
     return polys[(shapely.get_type_id(polys) == 3) & ~shapely.is_empty(polys)]
 
 
@@ -63,7 +64,8 @@ def union_polygons(parts, valid: bool = False) -> shapely.MultiPolygon:
 def difference_by_islands(a, b) -> shapely.Geometry:
     """``a`` minus ``b`` (valid polygonal geometries): :func:`shapely.difference`, island by
     island when ``a`` has more than :data:`MANY_ISLANDS` polygons: an island of ``a`` that
-    no part of ``b`` meets is kept, the others lose the parts of ``b`` they meet."""
+    no part of ``b`` meets is kept, one they cover is dropped, the others lose the parts
+    of ``b`` they meet."""
     islands = _polygons(a)
     if len(islands) <= MANY_ISLANDS:
         return shapely.difference(a, b)
@@ -82,4 +84,6 @@ def difference_by_islands(a, b) -> shapely.Geometry:
         tools[k] = shapely.union_all(cutters[by[first[k] : first[k] + count[k]]])
     kept = np.ones(len(islands), dtype=bool)
     kept[cut[first]] = False
-    return _multipolygon(np.concatenate([islands[kept], _polygons(shapely.difference(islands[cut[first]], tools))]))
+    met = islands[cut[first]]
+    left = ~shapely.covers(tools, met)  # an island its cutters cover is gone without an overlay
+    return _multipolygon(np.concatenate([islands[kept], _polygons(shapely.difference(met[left], tools[left]))]))
