@@ -4,8 +4,8 @@ square, three 0.2 mm layers).
 
 Prints, for ``--cubes`` cubes: the design's size; parsing, one section and the field
 (sdf and fractions at ``--points`` points) with long runs read as arrays
-(``fgslice.design.statement_runs``, ``fgslice.design.copies``), with the time, the peak
-memory of each (tracemalloc) and the section's area against the cubes' analytic area.
+(``fgslice.design.statement_runs``, ``fgslice.design.copies``): their times, the field's
+peak memory (tracemalloc), and the section's area checked against the cubes' area.
 ``--compare N`` does the same for N cubes both ways, runs read as arrays against one
 node per statement (the parser's path), side by side with their ratios. ``--commands``
 also runs ``fgslice check`` and ``fgslice slice`` on the design (wall and CPU seconds,
@@ -44,28 +44,37 @@ def cubes(n: int) -> str:
     return "union() {\n" + "\n".join(lines) + "\n}\n"
 
 
-def measured(fn):
-    """``(result, seconds, peak MB)`` of ``fn()`` (tracemalloc: numpy's and Python's allocations)."""
-    tracemalloc.start()
-    start = time.perf_counter()
+def timed(fn):
+    """``(result, CPU seconds)`` of ``fn()`` (one core's work: steadier than wall time on a
+    shared machine)."""
+    start = time.process_time()
     result = fn()
-    elapsed = time.perf_counter() - start
+    return result, time.process_time() - start
+
+
+def traced_peak(fn) -> float:
+    """Peak MB of numpy's and Python's allocations during ``fn()`` (tracemalloc, which
+    slows Python code down: timed apart)."""
+    tracemalloc.start()
+    fn()
     peak = tracemalloc.get_traced_memory()[1] / 1e6
     tracemalloc.stop()
-    return result, elapsed, peak
+    return peak
 
 
 def figures(text: str, n: int, points: int) -> dict[str, tuple[float, float]]:
-    """Seconds and peak MB of parsing, one section and the field; checks the section's area."""
-    design, parse_s, parse_mb = measured(lambda: parse_design(text))
-    section, section_s, section_mb = measured(lambda: design.section(0.0))
+    """Seconds of parsing and of one section, seconds and peak MB of the field at
+    ``points`` points (two sets of them, timed and traced); checks the section's area."""
+    design, parse_s = timed(lambda: parse_design(text))
+    section, section_s = timed(lambda: design.section(0.0))
     expected = n * SIZE_MM**2
     if abs(section.area - expected) > 1e-6 * expected:
         sys.exit(f"the section's area {section.area:.6f} mm2 is not the cubes' {expected:.6f} mm2")
     (x0, y0, z0), (x1, y1, z1) = design.bounds()
-    xyz = np.random.default_rng(0).uniform([x0, y0, z0], [x1, y1, z1], (points, 3)).T
-    _, field_s, field_mb = measured(lambda: (design.sdf(*xyz), design.fractions(*xyz)))
-    return {"parse": (parse_s, parse_mb), "section": (section_s, section_mb), "field": (field_s, field_mb)}
+    timed_xyz, traced_xyz = np.random.default_rng(0).uniform([x0, y0, z0], [x1, y1, z1], (2, points, 3)).transpose(0, 2, 1)
+    _, field_s = timed(lambda: (design.sdf(*timed_xyz), design.fractions(*timed_xyz)))
+    field_mb = traced_peak(lambda: (design.sdf(*traced_xyz), design.fractions(*traced_xyz)))
+    return {"parse": (parse_s, None), "section": (section_s, None), "field": (field_s, field_mb)}
 
 
 def per_statement(text: str, n: int, points: int) -> dict[str, tuple[float, float]]:
@@ -100,15 +109,16 @@ def main() -> None:
     text = cubes(args.cubes)
     print(f"{args.cubes} cubes, {len(text) / 1e6:.2f} MB of design, {args.points} field points")
     fast = figures(text, args.cubes, args.points)
-    print("  runs as arrays: " + ", ".join(f"{k} {s:.2f} s {mb:.0f} MB" for k, (s, mb) in fast.items())
-          + " (section area = the cubes')")
+    print("  runs as arrays (CPU s): " + ", ".join(f"{k} {s:.2f} s" + (f" {mb:.0f} MB peak" if mb else "")
+                                           for k, (s, mb) in fast.items()) + " (section area = the cubes')")
     if args.compare:
         small = cubes(args.compare)
         both = figures(small, args.compare, args.points), per_statement(small, args.compare, args.points)
-        print(f"{args.compare} cubes, runs as arrays / a node per statement:")
+        print(f"{args.compare} cubes, runs as arrays / a node per statement (CPU s):")
         for key in both[0]:
             (a, amb), (b, bmb) = both[0][key], both[1][key]
-            print(f"  {key:8s} {a:7.3f} s / {b:7.3f} s ({b / a:6.1f}x), peak {amb:6.1f} / {bmb:6.1f} MB")
+            peaks = f", peak {amb:.1f} / {bmb:.1f} MB" if amb else ""
+            print(f"  {key:8s} {a:7.3f} s / {b:7.3f} s ({b / a:6.1f}x){peaks}")
     if args.commands:
         with tempfile.TemporaryDirectory() as folder:
             design = Path(folder) / "cubes.vcad"
