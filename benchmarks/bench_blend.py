@@ -4,7 +4,8 @@ The design is OpenVCAD's cross-fade: two touching 40 mm cubes of two materials, 
 without ``blend(10, 10, 10)``. The fractions are sampled on one layer's grid (80 x 40 mm
 at 0.4 mm, 20,000 points) and on scattered points; every blended fraction costs
 ``LATTICE_POINTS`` (512) evaluations of the children. Prints CPU seconds per grid and
-points per second, and the ratio blended / plain.
+points per second, and the ratio blended / plain; then ``blend(1e6)``, whose box spans
+the whole part (one mean for every point), against ``blend(10, 10, 10)`` on the grid.
 
 Run: ``.venv/bin/python benchmarks/bench_blend.py [--repeat 3]``
 """
@@ -52,6 +53,11 @@ def main() -> None:
         times = {name: _cpu(lambda: call(design), args.repeat) for name, design in (("plain", plain), ("blend", blended))}
         print(f"{label}: plain {times['plain'] * 1e3:.1f} ms, blend {times['blend'] * 1e3:.0f} ms "
               f"({20_000 / times['blend']:,.0f} points/s), ratio {times['blend'] / times['plain']:.0f}")
+    huge = parse_design(f"blend(1e6) {{ {BLOCKS} }}")
+    grid = lambda d: d.fractions(xs[None, :], ys[:, None], 0.0)  # noqa: E731
+    big, ten = _cpu(lambda: grid(huge), args.repeat), _cpu(lambda: grid(blended), args.repeat)
+    print(f"layer grid, blend(1e6) (spans the whole part: one mean): {big * 1e3:.1f} ms, "
+          f"blend(10, 10, 10) {ten * 1e3:.0f} ms, ratio {big / ten:.3f}")
 
 
 if __name__ == "__main__":

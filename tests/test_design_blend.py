@@ -126,3 +126,25 @@ def test_the_stencil_averages_planar_steps_within_the_stated_accuracy():
     assert max(errors) < 0.05 and np.mean(errors) < 0.01
     for axis in range(3):  # each axis sees the midpoints of 512 equal cells
         np.testing.assert_allclose(np.sort(stencil[:, axis]), (np.arange(LATTICE_POINTS) + 0.5) / LATTICE_POINTS - 0.5)
+
+
+def test_a_size_beyond_the_part_averages_over_the_parts_whole_extent():
+    """blend(1e6) on parts 80 x 40 x 40 mm: every axis spans the children's box, so every
+    point gets the box's mean (the red part fills 3/4 of it), the same as a blend of
+    exactly the extent; one axis beyond the extent averages over it alone."""
+    uneven = """blend({size}) {{ union() {{
+        translate(-10, 0, 0) {{ rectprism((60, 40, 40), "red"); }}
+        translate(30, 0, 0) {{ rectprism((20, 40, 40), "blue"); }}
+    }} }}"""
+    huge = parse_design(uneven.format(size="1e6"))
+    exact = parse_design(uneven.format(size="80, 40, 40"))
+    rng = np.random.default_rng(4)
+    points = rng.uniform([-60, -30, -30], [60, 30, 30], (500, 3)).T
+    red = huge.fractions(*points)[:, 0]
+    assert np.allclose(red, 0.75, atol=1e-12)
+    assert np.array_equal(huge.fractions(*points), exact.fractions(*points))
+    along_x = parse_design(uneven.format(size="1e6, 0, 0"))
+    assert np.allclose(along_x.fractions(*points)[:, 0], 0.75, atol=1e-12)
+    below = parse_design(uneven.format(size="79, 40, 40"))  # not the whole extent: a ramp
+    x = np.array([-38.0, 18.0])
+    assert np.ptp(below.fractions(x, 0.0, 0.0)[:, 0]) > 0.2

@@ -114,3 +114,78 @@ def test_the_reader_splits_arcs_as_the_firmware_does():
     assert split.e.sum() == pytest.approx(3) and split.length.sum() == pytest.approx(np.hypot(30, 20) + 15 * np.pi, rel=1e-3)
     assert estimate_time(text, load_settings(None, {})) > estimate_time("G1 X30 Y20 Z0.2 F1200\n",
                                                                           load_settings(None, {}))
+
+
+def _greedy_arcs(starts, ends, owner, tolerance):
+    """The arcs one path at a time, one trial at a time (the greedy search the module
+    describes, with its own single-window check): ``{(path, first point, last point): (centre, turn)}``."""
+    from fgslice.machine.arcs import MAX_SEGMENTS, MIN_SEGMENTS, ROUNDING_MM, _fit_many
+
+    limit = tolerance - ROUNDING_MM
+    found = {}
+    for index in np.unique(owner):
+        points = np.vstack([starts[index], ends[owner == index]])
+        d = np.diff(points, axis=0)
+        sign = np.sign(d[:-1, 0] * d[1:, 1] - d[:-1, 1] * d[1:, 0])
+
+        def fit(a, size):
+            ok, centre, turn = _fit_many(points[a : a + size + 1][None], limit)
+            return (tuple(centre[0]), int(turn[0])) if ok[0] else None
+
+        # moves k, k + 1, k + 2 turn one way: runs of such k cover their moves and two more
+        same = [bool(sign[k] == sign[k + 1] != 0) for k in range(len(sign) - 1)] + [False]
+        runs, begin = [], None
+        for k, flag in enumerate(same):
+            if flag and begin is None:
+                begin = k
+            if not flag and begin is not None:
+                runs.append((begin, k + 1))
+                begin = None
+        for a, run_end in runs:
+            while run_end - a + 1 >= MIN_SEGMENTS:
+                best = fit(a, MIN_SEGMENTS)
+                if best is None:
+                    a += 1
+                    continue
+                low, high = MIN_SEGMENTS, min(run_end - a + 1, MAX_SEGMENTS)
+                longest = fit(a, high) if high > low else best
+                if longest is not None:
+                    low, best = high, longest
+                while high - low > 1:
+                    mid = (low + high) // 2
+                    trial = fit(a, mid)
+                    if trial is None:
+                        high = mid
+                    else:
+                        low, best = mid, trial
+                found[(int(index), a, a + low)] = best
+                a += low
+    return found
+
+
+def test_every_path_grown_together_gives_the_arcs_of_one_path_at_a_time(monkeypatch):
+    from fgslice.machine import arcs as module
+
+    rng = np.random.default_rng(8)
+    paths = _paths(rng)
+    for _ in range(40):  # arcs of ellipses of every size, clean and noisy
+        t = np.sort(rng.uniform(0, 2 * np.pi * rng.uniform(0.2, 1.5), rng.integers(5, 300)))
+        r = rng.uniform(0.5, 60)
+        p = np.column_stack([r * np.cos(t), r * rng.uniform(0.5, 1) * np.sin(t)]) + rng.uniform(0, 200, 2)
+        paths.append(np.round(p + rng.normal(0, rng.choice([0, 0.001, 0.01]), p.shape), 3))
+    starts = np.array([p[0] for p in paths])
+    ends = np.vstack([p[1:] for p in paths])
+    owner = np.repeat(np.arange(len(paths)), [len(p) - 1 for p in paths])
+    spans = []
+    monkeypatch.setattr(module, "_replace", lambda lines, vertices, vertex_of_end, found: spans.append(found) or lines)
+    fit_arcs(starts, ends, owner, TOLERANCE)
+    first, last, centre, turn = spans[0]
+    path_start = np.searchsorted(owner, np.arange(len(paths)))
+    arcs = {(int(owner[f]), int(f - path_start[owner[f]]), int(l + 1 - path_start[owner[f]])): (c, int(t))
+            for f, l, c, t in zip(first, last, centre, turn)}
+    expected = _greedy_arcs(starts, ends, owner, TOLERANCE)
+    assert len(expected) > 100
+    assert arcs.keys() == expected.keys()
+    for key, (c, t) in expected.items():
+        assert arcs[key][1] == t
+        assert tuple(arcs[key][0]) == pytest.approx(c, abs=1e-9)

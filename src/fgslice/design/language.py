@@ -22,6 +22,7 @@ from fgslice.design import nodes
 from fgslice.design.blend import Blend
 from fgslice.design.lark_cache import cached_lark
 from fgslice.design.materials import MaterialLibrary, builtin_library, load_library
+from fgslice.design.statement_runs import PLACEHOLDER, StatementRun, find_runs
 from fgslice.errors import DesignError, DesignSyntaxError, MeshError, did_you_mean
 
 GRAMMAR = r"""
@@ -76,17 +77,24 @@ _KIND_WORDS = {"number": "a number", "string": "a string", "vector": "a vector (
 class _Builder:
     """Turns a lark parse tree into nodes, checking names, arguments and materials."""
 
-    def __init__(self, text: str, file: str | None, library: MaterialLibrary) -> None:
+    def __init__(self, text: str, file: str | None, library: MaterialLibrary, runs: list[StatementRun] = ()) -> None:
         self.lines = text.splitlines()
         self.file = file
         self.library = library
         self.base_dir = Path(file).resolve().parent if file else None
         self.hint_bounds = None
         self.voxel_size = None
+        self.runs = runs
+        self._line_starts = np.flatnonzero(np.frombuffer(text.encode("utf-32-le"), dtype=np.uint32) == 10) + 1 if runs else None
 
     def where(self, line: int, column: int) -> nodes.Where:
         source = self.lines[line - 1] if 0 < line <= len(self.lines) else None
         return nodes.Where(self.file, line, column, source)
+
+    def where_at(self, offset: int) -> nodes.Where:
+        """The location of character ``offset`` of the text (lines and columns from 1)."""
+        line = int(np.searchsorted(self._line_starts, offset, side="right"))
+        return self.where(line + 1, offset - (int(self._line_starts[line - 1]) if line else 0) + 1)
 
     # ------------------------------------------------------------------ arguments
 
@@ -125,7 +133,12 @@ class _Builder:
                 raise DesignError(f"{name} is a primitive and takes no {{ }} block", **where.error_kwargs())
             return _PRIMITIVES[name](self, args, where)
         if name in _OPERATORS:
-            children = [self.build(c) for c in block.children] if block is not None else []
+            children = []
+            for c in block.children if block is not None else ():
+                if str(c.children[0]) == PLACEHOLDER:
+                    children += self.run_nodes(self.runs[int(c.children[1].children[0])], together=name in ("union", "root"))
+                else:
+                    children.append(self.build(c))
             if not children:
                 raise DesignError(
                     f"{name} has no children",
@@ -139,6 +152,59 @@ class _Builder:
             or "known: " + ", ".join(list(_PRIMITIVES) + list(_OPERATORS)),
             **where.error_kwargs(),
         )
+
+    def run_nodes(self, run: StatementRun, together: bool) -> list[nodes.Node]:
+        """The nodes of a run of simple statements (:mod:`fgslice.design.statement_runs`):
+        with ``together`` (the children of a union), :class:`~fgslice.design.copies.Copies`
+        per stretch of one primitive kind and material when every number is in range;
+        otherwise one ``translate`` and its primitive per statement, as parsed."""
+        from fgslice.design.copies import Copies
+
+        names = np.array(run.names)
+        given = ~np.isnan(run.sizes)
+        usable = (
+            together
+            and np.isfinite(run.offsets).all()
+            and bool(np.all(np.isfinite(run.sizes) & (run.sizes > 0) | ~given))
+        )
+        materials = {}
+        if usable:
+            for i, material in enumerate(run.materials):
+                if material is not None and material not in materials:
+                    where = self.where_at(run.arguments(i)[2][-1][2])
+                    materials[material] = self.library.get(material, **where.error_kwargs()).name
+        if not usable:
+            return [self._statement(run, i) for i in range(run.count)]
+        shape = np.select([names == "sphere", names == "cylinder"], ["sphere", "cylinder"], "box")
+        material = np.array([materials.get(m) or "" for m in run.materials], dtype=object)
+        change = np.flatnonzero((shape[1:] != shape[:-1]) | (material[1:] != material[:-1])) + 1
+        out = []
+        for start, end in zip(np.r_[0, change], np.r_[change, run.count]):
+            kind = str(shape[start])
+            sizes = run.sizes[start:end]
+            if kind == "box":
+                sizes = np.where(np.isnan(sizes), sizes[:, :1], sizes)  # a cube's size on every axis
+            elif kind == "sphere":
+                sizes = sizes[:, :1]
+            else:
+                sizes = sizes[:, :2]
+            out.append(Copies(kind, run.offsets[start:end], sizes, material[start] or None,
+                              self.where_at(run.matches[start].start(4))))
+        return out
+
+    def _statement(self, run: StatementRun, i: int) -> nodes.Node:
+        """Statement ``i`` of ``run`` built as the parser's path builds it."""
+        numbers, (name, name_at), given = run.arguments(i)
+
+        def arg(kind, text, offset):
+            if kind == "number":
+                return self.arg(lark.Token("NUMBER", text, line=(w := self.where_at(offset)).line, column=w.column))
+            w = self.where_at(offset)
+            return Arg("string", text, w)
+
+        offset = [arg(*a) for a in numbers]
+        primitive = _PRIMITIVES[name.lower()](self, [arg(*a) for a in given], self.where_at(name_at))
+        return _OPERATORS["translate"](self, offset, [primitive], self.where_at(run.matches[i].start()), False)
 
     def field(self, arg: Arg) -> nodes.Field:
         """The compiled expression of string ``arg``, its errors showing the file's lines."""
@@ -536,13 +602,14 @@ def parse_design(
     if "\x00" in text:
         raise DesignSyntaxError("the design is not a text file (it contains NUL bytes)", file=file)
     _check_size_and_nesting(text, file)
+    parsed, runs = find_runs(text)
     try:
-        tree = _parser().parse(text)
+        tree = _parser().parse(parsed)
     except lark.exceptions.LarkError as exc:
         raise _syntax_error(exc, text, file) from None
     if not tree.children:
         raise DesignError("the design is empty", file=file, hint="write one node, e.g. sphere(10);")
-    builder = _Builder(text, file, library)
+    builder = _Builder(text, file, library, runs)
     if len(tree.children) > 1:
         token = tree.children[1].children[0]
         raise DesignError(

@@ -192,9 +192,10 @@ def as_multipolygon(geom: shapely.Geometry) -> shapely.MultiPolygon:
         return _EMPTY
     if not geom.is_valid:
         geom = shapely.make_valid(geom)
-    polys = [p for g in shapely.get_parts(geom) for p in shapely.get_parts(g) if p.geom_type == "Polygon"]
-    polys = [p for p in polys if not p.is_empty and p.area > 0]
-    return shapely.MultiPolygon(polys) if polys else _EMPTY
+    parts = shapely.get_parts(shapely.get_parts(geom))
+    polys = parts[(shapely.get_type_id(parts) == 3) & ~shapely.is_empty(parts)]
+    polys = polys[shapely.area(polys) > 0]
+    return shapely.multipolygons(polys) if len(polys) else _EMPTY
 
 
 def _box_sdf(x, y, z, half) -> np.ndarray:
@@ -554,8 +555,22 @@ class Union(Node):
         boxes = [b for b in boxes if not np.any(b[0] > b[1])] or boxes
         return np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)
 
+    @functools.cached_property
+    def valid_sections(self) -> bool:
+        """Many children or copies (:mod:`fgslice.design.copies`): their sections are joined
+        by :func:`~fgslice.islands.union_polygons`, which keeps islands apart as
+        they are and gives valid MultiPolygons."""
+        return len(self.children) > 64 or any(c.kind == "copies" for c in self.children)
+
     def _sections(self, zs, spacing):
-        return list(shapely.union_all(np.array([c.sections(zs, spacing) for c in self.children], dtype=object), axis=0))
+        if len(self.children) == 1 and self.children[0].kind == "copies":
+            return self.children[0].sections(zs, spacing)
+        parts = np.array([c.sections(zs, spacing) for c in self.children], dtype=object)
+        if self.valid_sections:
+            from fgslice.islands import union_polygons
+
+            return [union_polygons(parts[:, i]) for i in range(len(zs))]
+        return list(shapely.union_all(parts, axis=0))
 
     def raw(self, x, y, z, columns):
         return _union_raw(self.children, x, y, z, columns, self._index)
@@ -956,7 +971,7 @@ class NodeDesign(Design):
         unnamed = False
         self.node_count = 0
         for node, depth, overridden in walk(root):
-            self.node_count += 1
+            self.node_count += getattr(node, "statements", 1)
             if depth > MAX_DEPTH:
                 raise DesignError(
                     f"the design nests more than {MAX_DEPTH} levels deep",

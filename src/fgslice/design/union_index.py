@@ -16,7 +16,8 @@ children's XY boxes in a shapely STRtree and, for a batch of points:
 
 A point inside a child lies in its box, so inside/outside and the first child containing
 a point are exact. Used by :class:`~fgslice.design.nodes.Union` above
-:data:`MANY_CHILDREN` children.
+:data:`MANY_CHILDREN` children, and by :class:`~fgslice.design.copies.Copies` (copies of
+one primitive, whose distances at all pairs are one vectorized call).
 """
 
 from __future__ import annotations
@@ -30,26 +31,27 @@ MANY_CHILDREN = 64
 """A union of more children than this locates them by their boxes."""
 
 
-class ChildIndex:
-    """The non-empty children of a union, by bounding box (design frame, mm)."""
+class BoxIndex:
+    """Items by their bounding boxes ``lo``, ``hi`` (``(n, 3)``, design frame, mm); an item
+    with ``lo > hi`` on some axis is empty and never evaluated. ``evaluate(item, x, y, z)``
+    gives item ``item[i]``'s distance at the point ``(x[i], y[i], z[i])`` for 1-D arrays."""
 
-    def __init__(self, children: Sequence) -> None:
-        self.children = list(children)
-        bounds = [c.bounds() for c in self.children]
-        lo = np.array([b[0] for b in bounds], dtype=float).reshape(-1, 3)
-        hi = np.array([b[1] for b in bounds], dtype=float).reshape(-1, 3)
+    def __init__(self, lo: np.ndarray, hi: np.ndarray, evaluate) -> None:
+        lo = np.asarray(lo, dtype=float).reshape(-1, 3)
+        hi = np.asarray(hi, dtype=float).reshape(-1, 3)
+        self.evaluate = evaluate
         self.kept = np.flatnonzero(~np.any(lo > hi, axis=1))
         self.lo, self.hi = lo[self.kept], hi[self.kept]
         self.tree = shapely.STRtree(shapely.box(self.lo[:, 0], self.lo[:, 1], self.hi[:, 0], self.hi[:, 1]))
 
     @property
     def usable(self) -> bool:
-        """Whether any child is non-empty (otherwise every child is evaluated as usual)."""
+        """Whether any item is non-empty (otherwise every child is evaluated as usual)."""
         return len(self.kept) > 0
 
     def pairs(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(point, child, distance)``: every child that can decide each 1-D point, with
-        its distance there (a point may appear with the same child twice)."""
+        """``(point, item, distance)``: every item that can decide each 1-D point, with
+        its distance there (a point may appear with the same item twice)."""
         points = shapely.points(x, y)
         p0, t0 = self.tree.query_nearest(points, all_matches=False)
         v0 = self._evaluate(p0, t0, x, y, z)
@@ -61,7 +63,7 @@ class ChildIndex:
         near = np.sqrt((gap**2).sum(axis=1)) <= reach[p1]
         nearest = np.full(len(x), -1)
         nearest[p0] = t0
-        near &= t1 != nearest[p1]  # the nearest box's child is evaluated already
+        near &= t1 != nearest[p1]  # the nearest box's item is evaluated already
         p1, t1 = p1[near], t1[near]
         v1 = self._evaluate(p1, t1, x, y, z)
         return np.concatenate([p0, p1]), self.kept[np.concatenate([t0, t1])], np.concatenate([v0, v1])
@@ -76,10 +78,10 @@ class ChildIndex:
         return out.reshape(shape)
 
     def owners(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
-        """Index of the child deciding each 1-D point: the first containing it, else the nearest."""
+        """Index of the item deciding each 1-D point: the first containing it, else the nearest."""
         point, child, distance = self.pairs(x, y, z)
         inside = distance <= 0
-        # inside first, then by child index (the first containing); outside by distance
+        # inside first, then by item index (the first containing); outside by distance
         order = np.lexsort((child, np.where(inside, 0.0, distance), ~inside, point))
         first = order[np.r_[True, np.diff(point[order]) != 0]]
         owner = np.zeros(len(x), dtype=np.int64)
@@ -87,16 +89,29 @@ class ChildIndex:
         return owner
 
     def _evaluate(self, point: np.ndarray, tree_index: np.ndarray, x, y, z) -> np.ndarray:
-        """Each pair's child's distance at its point, one call per child."""
-        out = np.empty(len(point))
+        """Each pair's item's distance at its point."""
         if not len(point):
-            return out
-        order = np.argsort(tree_index, kind="stable")
-        starts = np.flatnonzero(np.r_[True, np.diff(tree_index[order]) != 0])
+            return np.empty(0)
+        return np.asarray(self.evaluate(self.kept[tree_index], x[point], y[point], z[point]), dtype=float)
+
+
+class ChildIndex(BoxIndex):
+    """The non-empty children of a union, by bounding box (design frame, mm)."""
+
+    def __init__(self, children: Sequence) -> None:
+        self.children = list(children)
+        bounds = [c.bounds() for c in self.children]
+        lo = np.array([b[0] for b in bounds], dtype=float).reshape(-1, 3)
+        hi = np.array([b[1] for b in bounds], dtype=float).reshape(-1, 3)
+        super().__init__(lo, hi, self._children_at)
+
+    def _children_at(self, child: np.ndarray, x, y, z) -> np.ndarray:
+        """Each pair's child's distance at its point, one call per child."""
+        out = np.empty(len(child))
+        order = np.argsort(child, kind="stable")
+        starts = np.flatnonzero(np.r_[True, np.diff(child[order]) != 0])
         ends = np.r_[starts[1:], len(order)]
         for start, end in zip(starts, ends):
             rows = order[start:end]
-            idx = point[rows]
-            child = self.children[self.kept[tree_index[rows[0]]]]
-            out[rows] = np.broadcast_to(child.sdf(x[idx], y[idx], z[idx]), idx.shape)
+            out[rows] = np.broadcast_to(self.children[child[rows[0]]].sdf(x[rows], y[rows], z[rows]), rows.shape)
         return out

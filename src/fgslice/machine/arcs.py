@@ -16,8 +16,10 @@ the centre in one direction, less than a full turn, and the radius is at most
 
 Runs are found with numpy (the turn direction at every vertex; only runs of one sign
 are tried) and grown greedily from their first vertex: three moves, then the whole run
-(up to :data:`MAX_SEGMENTS`), then bisecting between them; each trial is one vectorized
-check, so an arc on a smooth curve costs two.
+(up to :data:`MAX_SEGMENTS`), then bisecting between them. Every run grows at once: each
+step of the greedy search is one vectorized check of one trial window per run still
+growing (windows of unequal lengths, flattened), so a layer of tens of thousands of arcs
+costs a few dozen numpy passes rather than a Python loop per arc.
 """
 
 from __future__ import annotations
@@ -77,17 +79,18 @@ def fit_arcs(starts: np.ndarray, ends: np.ndarray, path: np.ndarray, tolerance: 
     windows = vertices[(vertex_of_end[k] - 1)[:, None] + np.arange(MIN_SEGMENTS + 1)]
     starts_fit = np.zeros(m, dtype=bool)
     starts_fit[k] = _fit_many(windows, limit)[0] & (path[k] == path[k + MIN_SEGMENTS - 1])
-    spans = []  # (first move, last move, centre, turn) of each arc
-    for a, b in _candidate_runs(vertices, vertex_of_end, path):
-        spans += _grow(vertices, int(vertex_of_end[a]) - a - 1, a, b, limit, starts_fit)
-    if not spans:
+    runs = _candidate_runs(vertices, vertex_of_end, path)
+    if not len(runs):
+        return lines
+    spans = _grow(vertices, vertex_of_end[runs[:, 0]] - runs[:, 0] - 1, runs[:, 0], runs[:, 1], limit, starts_fit)
+    if not len(spans[0]):
         return lines
     return _replace(lines, vertices, vertex_of_end, spans)
 
 
-def _candidate_runs(vertices: np.ndarray, vertex_of_end: np.ndarray, path: np.ndarray) -> list[tuple[int, int]]:
-    """Runs ``(first, last)`` of move indices of one path, at least :data:`MIN_SEGMENTS`
-    long, turning the same way at every vertex between them."""
+def _candidate_runs(vertices: np.ndarray, vertex_of_end: np.ndarray, path: np.ndarray) -> np.ndarray:
+    """Runs ``(first, last)`` (rows of an ``(r, 2)`` array) of move indices of one path, at
+    least :data:`MIN_SEGMENTS` long, turning the same way at every vertex between them."""
     prev = vertices[vertex_of_end - 1]
     d = vertices[vertex_of_end] - prev  # each move's vector
     cross = d[:-1, 0] * d[1:, 1] - d[:-1, 1] * d[1:, 0]  # the turn between move k and k + 1
@@ -97,45 +100,102 @@ def _candidate_runs(vertices: np.ndarray, vertex_of_end: np.ndarray, path: np.nd
     edges = np.diff(np.r_[0, same.astype(np.int8), 0])
     begin, stop = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
     keep = stop - begin + 2 >= MIN_SEGMENTS
-    return list(zip(begin[keep].tolist(), (stop[keep] + 1).tolist()))
+    return np.column_stack([begin[keep], stop[keep] + 1]).astype(np.int64)
 
 
-def _grow(vertices: np.ndarray, shift: int, a: int, b: int, limit: float,
-          starts_fit: np.ndarray) -> list[tuple[int, int, np.ndarray, int]]:
-    """Arcs covering moves ``a..b`` (one run of one path, whose move ``k`` starts at vertex
-    ``k + shift``) greedily from ``a``: each as many moves as fit (``starts_fit[k]``: moves
-    ``k .. k + 2`` fit)."""
-    found = []
-    while b - a + 1 >= MIN_SEGMENTS:
-        def fit(size: int):
-            return _fit(vertices[a + shift : a + shift + size + 1], limit)
+def _grow(vertices: np.ndarray, shift: np.ndarray, a: np.ndarray, b: np.ndarray, limit: float,
+          starts_fit: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Arcs ``(first move, last move, centre, turn)`` (arrays) covering the moves
+    ``a[r]..b[r]`` of each run ``r`` (one path's, whose move ``k`` starts at vertex
+    ``k + shift[r]``) greedily from ``a[r]``: each as many moves as fit
+    (``starts_fit[k]``: moves ``k .. k + 2`` fit), every run a step at a time together."""
+    # the first move at or after each move that may start an arc (len(starts_fit) if none)
+    fits = np.flatnonzero(starts_fit)
+    next_fit = np.r_[fits, len(starts_fit)][np.searchsorted(fits, np.arange(len(starts_fit) + 1))]
+    a, b, shift = a.copy(), b.copy(), shift.copy()
+    firsts, lasts, centres, turns = [], [], [], []
+    while True:
+        a = next_fit[np.minimum(a, len(starts_fit))]
+        live = b - a + 1 >= MIN_SEGMENTS
+        a, b, shift = a[live], b[live], shift[live]
+        if not len(a):
+            break
+        first = a + shift  # vertex where each arc starts
+        low = np.full(len(a), MIN_SEGMENTS)
+        _, centre, turn = _fit_windows(vertices, first, low, limit)
+        high = np.minimum(b - a + 1, MAX_SEGMENTS)
+        trial = np.flatnonzero(high > low)
+        ok, c, t = _fit_windows(vertices, first[trial], high[trial], limit)
+        whole = trial[ok]  # the whole run (up to the cap): the usual case on a smooth curve
+        low[whole], centre[whole], turn[whole] = high[whole], c[ok], t[ok]
+        while True:  # low fits, high does not
+            trial = np.flatnonzero(high - low > 1)
+            if not len(trial):
+                break
+            mid = (low[trial] + high[trial]) // 2
+            ok, c, t = _fit_windows(vertices, first[trial], mid, limit)
+            high[trial[~ok]] = mid[~ok]
+            good = trial[ok]
+            low[good], centre[good], turn[good] = mid[ok], c[ok], t[ok]
+        firsts.append(a)
+        lasts.append(a + low - 1)
+        centres.append(centre)
+        turns.append(turn)
+        a = a + low
+    if not firsts:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2)), np.zeros(0, np.int8)
+    return np.concatenate(firsts), np.concatenate(lasts), np.concatenate(centres), np.concatenate(turns)
 
-        if not starts_fit[a]:
-            a += 1
-            continue
-        best = fit(MIN_SEGMENTS)
-        low, high = MIN_SEGMENTS, min(b - a + 1, MAX_SEGMENTS)
-        longest = fit(high) if high > low else best
-        if longest is not None:  # the whole run (up to the cap): the usual case on a smooth curve
-            low, best = high, longest
-        while high - low > 1:  # low fits, high does not
-            mid = (low + high) // 2
-            trial = fit(mid)
-            if trial is None:
-                high = mid
-            else:
-                low, best = mid, trial
-        centre, turn = best
-        found.append((a, a + low - 1, centre, turn))
-        a += low
-    return found
+
+WINDOW_POINTS = 1 << 18
+"""Points checked at once by :func:`_fit_windows` (bounds its temporary arrays)."""
 
 
-def _fit(points: np.ndarray, limit: float) -> tuple[np.ndarray, int] | None:
-    """The circle (centre, turn) through the first, middle and last of ``points`` (``(k, 2)``)
-    if the arc along it stays within ``limit`` mm of the polyline (see the module notes)."""
-    ok, centre, turn = _fit_many(points[None], limit)
-    return (centre[0], int(turn[0])) if ok[0] else None
+def _fit_windows(vertices: np.ndarray, first: np.ndarray, size: np.ndarray,
+                 limit: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_fit_many` of the windows ``vertices[first[w] : first[w] + size[w] + 1]`` of
+    unequal lengths: whether each fits, its centre ``(w, 2)`` and turn ``(w,)``."""
+    ok = np.zeros(len(first), dtype=bool)
+    centre = np.zeros((len(first), 2))
+    turn = np.zeros(len(first), dtype=np.int64)
+    bounds = np.searchsorted(np.cumsum(size + 1), np.arange(1, 1 + int((size + 1).sum()) // WINDOW_POINTS) * WINDOW_POINTS)
+    for rows in np.split(np.arange(len(first)), np.unique(bounds)):
+        if len(rows):
+            ok[rows], centre[rows], turn[rows] = _fit_ragged(vertices, first[rows], size[rows], limit)
+    return ok, centre, turn
+
+
+def _fit_ragged(vertices: np.ndarray, first: np.ndarray, size: np.ndarray,
+                limit: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_fit_windows` of one batch: the windows' points flattened, the checks of
+    :func:`_fit_many` reduced per window."""
+    count = size + 1
+    start = np.cumsum(count) - count  # each window's first row in the flat arrays
+    window = np.repeat(np.arange(len(first)), count)
+    points = vertices[np.arange(int(count.sum())) - np.repeat(start, count) + np.repeat(first, count)]
+    p0, p1, p2 = vertices[first], vertices[first + count // 2], vertices[first + size]
+    u, v = p1 - p0, p2 - p0
+    det = 2.0 * (u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0])
+    safe = np.where(np.abs(det) < 1e-12, 1.0, det)
+    uu, vv = (u * u).sum(axis=1), (v * v).sum(axis=1)
+    centre = p0 + np.column_stack([(v[:, 1] * uu - u[:, 1] * vv) / safe, (u[:, 0] * vv - v[:, 0] * uu) / safe])
+    rel = points - centre[window]
+    radius = np.hypot(*(p0 - centre).T)
+    off = np.abs(np.hypot(rel[:, 0], rel[:, 1]) - radius[window])
+    pair = np.ones(len(points), dtype=bool)
+    pair[start + size] = False  # a window's last point starts no pair
+    pair = np.flatnonzero(pair)
+    pa, pb = rel[pair], rel[pair + 1]
+    step = np.arctan2(pa[:, 0] * pb[:, 1] - pa[:, 1] * pb[:, 0], (pa * pb).sum(axis=1))  # signed, radians
+    pair_start = start - np.arange(len(first))  # each window's first pair
+    turn = np.where(step[pair_start] > 0, 1, -1)
+    pair_window = window[pair]
+    sagitta = radius[pair_window] * (1.0 - np.cos(step / 2))
+    ok = ((np.abs(det) >= 1e-12) & (radius <= MAX_RADIUS_MM) & (np.maximum.reduceat(off, start) <= limit)
+          & (np.minimum.reduceat(step * turn[pair_window], pair_start) > 0)
+          & (np.abs(np.add.reduceat(step, pair_start)) < 2 * np.pi - 1e-6)
+          & (np.maximum.reduceat(sagitta + np.maximum(off[pair], off[pair + 1]), pair_start) <= limit))
+    return ok, centre, turn
 
 
 def _fit_many(windows: np.ndarray, limit: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -160,14 +220,12 @@ def _fit_many(windows: np.ndarray, limit: float) -> tuple[np.ndarray, np.ndarray
     return ok, centre, turn
 
 
-def _replace(lines: FittedMoves, vertices: np.ndarray, vertex_of_end: np.ndarray,
-             spans: list[tuple[int, int, np.ndarray, int]]) -> FittedMoves:
-    """``lines`` with the moves of each span replaced by its arc."""
+def _replace(lines: FittedMoves, vertices: np.ndarray, vertex_of_end: np.ndarray, spans) -> FittedMoves:
+    """``lines`` with the moves of each span (``(first, last, centre, turn)`` arrays, see
+    :func:`_grow`) replaced by its arc."""
     m = len(lines.ends)
-    first = np.array([s[0] for s in spans], dtype=np.int64)
-    last = np.array([s[1] for s in spans], dtype=np.int64)
-    centre = np.array([s[2] for s in spans])
-    turn = np.array([s[3] for s in spans], dtype=np.int8)
+    first, last, centre, turn = spans
+    turn = turn.astype(np.int8)
     covered = np.zeros(m + 1, dtype=np.int64)
     np.add.at(covered, first, 1)
     np.add.at(covered, last, -1)

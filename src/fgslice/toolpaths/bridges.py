@@ -25,6 +25,7 @@ import math
 import numpy as np
 import shapely
 
+from fgslice.islands import difference_by_islands
 from fgslice.settings import Settings
 from fgslice.toolpaths.infill import line_fill, open_paths
 from fgslice.toolpaths.paths import Path, Role, bead_area
@@ -100,7 +101,7 @@ def face_bridges(outline, below, settings: Settings) -> shapely.Geometry:
     if below is None:
         return shapely.Polygon()
     w = settings.bead_width
-    over_air = opening(shapely.difference(outline, below), w)
+    over_air = opening(difference_by_islands(outline, below), w)
     if over_air.is_empty:
         return over_air
     inside = shapely.buffer(outline, -w, join_style="mitre")

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 import shapely
 
+from fgslice.islands import MANY_ISLANDS, union_polygons
 from fgslice.settings import Settings
 from fgslice.toolpaths.paths import Path, Role
 from fgslice.toolpaths.simplify import simplify_polygons
@@ -29,10 +30,16 @@ def brim_loops(settings: Settings) -> int:
     return max(1, int(round(settings.brim_width / s)))
 
 
+def _filled(outline):
+    """The islands of ``outline`` with their holes filled, as one geometry (many islands
+    apart are kept as they are: :func:`fgslice.islands.union_polygons`)."""
+    islands = shapely.polygons(shapely.get_exterior_ring(shapely.get_parts(outline)))
+    return union_polygons(islands) if len(islands) > MANY_ISLANDS else shapely.union_all(islands)
+
+
 def brim_area(first_layer_outline, settings: Settings):
     """The first layer's islands with their brim (holes filled), the area a skirt goes around."""
-    islands = shapely.polygons(shapely.get_exterior_ring(shapely.get_parts(first_layer_outline)))
-    solid = shapely.union_all(islands)
+    solid = _filled(first_layer_outline)
     n = brim_loops(settings)
     if n == 0:
         return solid
@@ -47,8 +54,7 @@ def brim_paths(first_layer_outline, settings: Settings) -> list[Path]:
     if n == 0 or first_layer_outline.is_empty:
         return []
     w, h = settings.bead_width, settings.layer_height
-    islands = shapely.polygons(shapely.get_exterior_ring(shapely.get_parts(first_layer_outline)))
-    solid = shapely.union_all(islands)
+    solid = _filled(first_layer_outline)
     dist = w / 2 + bead_spacing(w, h) * np.arange(n)
     loops = shapely.buffer(solid, dist, join_style="mitre", mitre_limit=MITRE_LIMIT)
     loops = simplify_polygons(loops, settings.gcode_resolution)
