@@ -15,6 +15,10 @@ axis the offsets are the midpoints of N equal cells, so the rule is exact for fr
 linear along each axis, and a sharp boundary perpendicular to an axis (two touching
 boxes) gives the exact linear ramp within 1/N (0.002); for a planar boundary of any
 orientation the error was below 0.05 (mean 0.003) over 1000 random planes.
+
+A child holding meshes (whose materials off a plane of sections cost a 3-D distance per
+sample) with a blend size on every axis is averaged on a grid instead, once
+(:mod:`fgslice.design.blend_grid`, within 0.025 of the lattice rule).
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from fgslice.design.blend_grid import BlendGrid
 from fgslice.design.nodes import CHUNK, NOWHERE, Columns, MaterialNode, Node, Where, normalized
 
 LATTICE_POINTS = 512
@@ -54,11 +59,24 @@ class Blend(MaterialNode):
 
     coordinate_free = False
 
+    @functools.cached_property
+    def _gridded(self) -> bool:
+        """Whether the averages come from a grid (a child holding meshes, every size > 0)."""
+        from fgslice.design.membership import uses_sections
+
+        return bool(np.all(self.size > 0)) and uses_sections(self._body)
+
     def raw(self, x, y, z, columns: Columns) -> np.ndarray:
         if columns.void_only and not self.can_be_void:  # only where void wins is asked: nowhere here
             return columns.one_hot(np.shape(x)[0], None)
         if self._body.coordinate_free:  # the same fractions everywhere: their mean is themselves
             return normalized(self._body.raw(x, y, z, columns))
+        if self._gridded:
+            key = (tuple(columns.index), columns.void_only)
+            grids = self.__dict__.setdefault("_grids", {})
+            if key not in grids:
+                grids[key] = BlendGrid(self._body, self.size, columns)
+            return grids[key](x, y, z)
         n = np.shape(x)[0]
         out = np.empty((n, columns.k))
         ox, oy, oz = self._offsets.T
