@@ -124,8 +124,6 @@ def test_a_compiler_names_the_design_it_compiles(tmp_path):
     ("import pyvcad_compilers as pvc\npvc.InpWriter()", r"pyvcad_compilers.InpWriter is not supported by fgslice"),
     ("import pyvcad_compilers as pvc\npvc.MeshCompiler(pv.Sphere(1, 1, 1, 1), 1, 'o', 'p', 3).write()",
      r"MeshCompiler.write is not supported"),
-    ("pv.SupportAnalyzerParallel(pv.Sphere(0, 0, 0, 5), pv.Vec3(1, 1, 1), 1).analyze()",
-     r"pyvcad.SupportAnalyzerParallel is not supported by fgslice: it computes inkjet support material"),
     ("pv.ConformalMap(pv.Sphere(0, 0, 0, 5), pv.Sphere(0, 0, 5, 1))",
      r"pyvcad.ConformalMap is not supported by fgslice: OpenVCAD's experimental wrapping"),
     ("pv.Map('a.off', 'b.off')", r"pyvcad.Map is not supported by fgslice: OpenVCAD's experimental surface"),

@@ -148,3 +148,24 @@ def test_a_size_beyond_the_part_averages_over_the_parts_whole_extent():
     below = parse_design(uneven.format(size="79, 40, 40"))  # not the whole extent: a ramp
     x = np.array([-38.0, 18.0])
     assert np.ptp(below.fractions(x, 0.0, 0.0)[:, 0]) > 0.2
+
+
+def test_a_child_of_meshes_is_averaged_on_a_grid_within_its_accuracy_of_the_lattice_rule(tmp_path):
+    import trimesh
+
+    from fgslice.design.blend_grid import CELLS
+
+    for name, x0 in (("left", -10.0), ("right", 10.0)):
+        trimesh.creation.box((20, 10, 2), trimesh.transformations.translation_matrix((x0, 0, 1))).export(
+            tmp_path / f"{name}.stl")
+    meshes = api.blend(8, api.union(api.mesh(tmp_path / "left.stl", "red"), api.mesh(tmp_path / "right.stl", "blue")))
+    boxes = api.blend(8, api.union(api.translate((-10, 0, 1), api.rectprism(20, 10, 2, "red")),
+                                   api.translate((10, 0, 1), api.rectprism(20, 10, 2, "blue"))))
+    assert meshes._gridded and not boxes._gridded
+    gridded, exact = api.design(meshes), api.design(boxes)
+    rng = np.random.default_rng(3)
+    x, y, z = rng.uniform((-20, -5, 0), (20, 5, 2), (400, 3)).T
+    x[:100] = rng.uniform(-5, 5, 100)  # across the ramp
+    np.testing.assert_allclose(gridded.fractions(x, y, z), exact.fractions(x, y, z), atol=1 / CELLS)
+    plane = np.full(x.shape, 1.0)  # a layer's points, as the slicer asks
+    np.testing.assert_allclose(gridded.fractions(x, y, plane)[:, 0], _ramp(x, 8), atol=1 / CELLS)

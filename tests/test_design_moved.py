@@ -70,3 +70,22 @@ def test_fractions_stay_in_the_grading_frame(tmp_path):
     fractions = design.fractions(np.zeros(3), np.zeros(3), z)
     # rotate(0, 90, 0) takes x to -z: the child's x at height z is -z
     assert np.allclose(fractions[:, 0], -z / 20 + 0.5)
+
+
+def test_a_traced_field_intersected_with_a_tilted_mesh_is_traced_only_where_the_mesh_is():
+    """OpenVCAD's logo: a gyroid function intersected with a mesh under a tilting map. The
+    function is traced only within the mesh section's box; the outlines are the same as
+    the function's whole traced section intersected with the mesh's."""
+    gyroid = nodes.Field("sin(x) * cos(y) + sin(y) * cos(z) + sin(z) * cos(x) + 0.5")
+    field = nodes.FunctionShape((-60, -15, -6), (60, 15, 6), gyroid)
+    blob = _mesh(trimesh.creation.icosphere(3, 8.0))
+    root = nodes.Rotate((90, 180, 180), nodes.Intersection([blob, field]))
+    design = nodes.NodeDesign(root)
+    inner = design.root.moved_tree
+    assert type(inner) is nodes.Intersection and [c.traced for c in inner.children] == [False, True]
+    for z in (-5.0, 0.3, 4.0):
+        got = design.section(z)
+        mesh_part, traced = (c.section(z, nodes.DEFAULT_SECTION_SPACING) for c in inner.children)
+        assert traced.bounds[2] - traced.bounds[0] > 100  # the function's whole section is wide
+        want = shapely.intersection(mesh_part, traced)
+        assert got.area > 10 and got.symmetric_difference(want).area < 1e-6 * want.area

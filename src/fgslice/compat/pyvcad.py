@@ -74,10 +74,6 @@ def __getattr__(name: str):
 
 
 _REFUSED = {
-    "SupportAnalyzerParallel": (
-        "it computes inkjet support material (voxels of a support resin under the overhangs), which a filament "
-        "printer does not print as part of the design",
-        "leave the support nodes out of the design and slice with --set support=true, fgslice's own support"),
     "Map": ("OpenVCAD's experimental surface parameterization has no documented geometry or material to print",
             "model the part with its meshes and primitives"),
     "ConformalMap": ("OpenVCAD's experimental wrapping of a pattern onto a surface is defined by its implementation "
@@ -1046,3 +1042,45 @@ class Convolution(Node):
 
 
 __all__ += ["Sum", "Blend", "Convolution"]
+
+
+class SupportAnalyzer:
+    """``SupportAnalyzer(input_model, voxel_size, material_id=1)``: ``analyze()`` gives the
+    support under the model's overhangs in ``material_id``, as a node: the points outside
+    the model with model material above them, down to its lowest z
+    (:mod:`fgslice.design.shadow_support`). The model's sections are stacked every
+    ``voxel_size.z`` mm (at least 0.1 mm); in x and y the support is as exact as they are."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        owner = type(self).__name__
+        model, voxel, material = _bind(owner, ("input_model", "voxel_size", "material_id"), args, kwargs,
+                                       {"material_id": 1})
+        self._model = _child(owner, model)
+        self._voxel = _vec3(owner, "voxel_size", voxel)
+        if not min(self._voxel) > 0:
+            raise DesignError(f"{owner}: voxel_size must be positive on every axis, got {self._voxel}", hint=_DOCS)
+        self._material = _material(owner, material)
+
+    def analyze(self) -> Node:
+        """The support volume (a node to add to the design)."""
+        return _Support(self._model, self._voxel[2], self._material)
+
+
+class SupportAnalyzerParallel(SupportAnalyzer):
+    """OpenVCAD's multi-threaded ``SupportAnalyzer``: the same support."""
+
+
+class _Support(Node):
+    """What ``SupportAnalyzer.analyze()`` returns; built when the design is."""
+
+    def __init__(self, model: Node, step: float, material: str | None) -> None:
+        super().__init__()
+        self._model, self._step, self._material = model, step, material
+
+    def _build(self, convert) -> nodes.Node:
+        from fgslice.design.shadow_support import ShadowSupport
+
+        return ShadowSupport(convert(self._model), self._step, self._material)
+
+
+__all__ += ["SupportAnalyzer", "SupportAnalyzerParallel"]

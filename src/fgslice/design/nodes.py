@@ -265,6 +265,25 @@ class Node:
         """Outlines at heights within the bounds; one :meth:`_section` each unless overridden."""
         return [self._section(z, spacing) for z in zs]
 
+    traced = False
+    """True when the outlines are traced on a field over the node's whole box, so that
+    tracing only a window of it (:meth:`sections_within`) saves work."""
+
+    def sections_within(self, zs: Sequence[float], spacing: float, windows: np.ndarray) -> list[shapely.Geometry]:
+        """Outlines at ``zs`` needed only inside the rectangles ``windows`` (``(n, 4)``
+        xmin, ymin, xmax, ymax in mm; NaN: nothing needed), e.g. as one child of an
+        intersection: a :attr:`traced` node traces only the windows (grown by two
+        spacings); any other gives its whole outlines."""
+        if not self.traced:
+            return self.sections(zs, spacing)
+        lo, hi = self.bounds()
+        return [_EMPTY if np.any(lo > hi) or not lo[2] <= z <= hi[2] or np.isnan(w).any()
+                else self._window_section(float(z), spacing, np.asarray(w, dtype=float))
+                for z, w in zip(zs, windows)]
+
+    def _window_section(self, z: float, spacing: float, window: np.ndarray) -> shapely.Geometry:
+        return sampled_section(self, z, spacing, window)
+
     def _section(self, z: float, spacing: float) -> shapely.Geometry:
         return sampled_section(self, z, spacing)
 
@@ -290,16 +309,28 @@ SAMPLED_CELL = 4
 """Fine cell of sampled sections, in ``spacing``: 0.4 mm at the default spacing."""
 
 
-def sampled_section(node: Node, z: float, spacing: float) -> shapely.Geometry:
+def sampled_section(node: Node, z: float, spacing: float, window: np.ndarray | None = None) -> shapely.Geometry:
     """Outline of ``node`` at ``z`` traced on its sdf with cells of ``SAMPLED_CELL * spacing``
-    mm, vertices within ``spacing / 20`` of the zero level."""
+    mm, vertices within ``spacing / 20`` of the zero level; only within the rectangle
+    ``window`` (xmin, ymin, xmax, ymax, grown by two spacings) when given."""
     from fgslice.design.sampled import section_from_sdf
 
     lo, hi = node.bounds()
     pad = 2.0 * spacing
     bounds2d = (lo[0] - pad, lo[1] - pad, hi[0] + pad, hi[1] + pad)
+    if window is not None:
+        bounds2d = _clipped(bounds2d, window, pad)
+        if bounds2d is None:
+            return _EMPTY
     return section_from_sdf(lambda x, y: node.sdf(x, y, np.full(np.shape(x), z)), bounds2d, SAMPLED_CELL * spacing,
                             tolerance=spacing / 20)
+
+
+def _clipped(bounds2d, window: np.ndarray, pad: float) -> tuple[float, float, float, float] | None:
+    """The rectangle ``bounds2d`` within ``window`` grown by ``pad``; None when they miss."""
+    x0, y0 = max(bounds2d[0], window[0] - pad), max(bounds2d[1], window[1] - pad)
+    x1, y1 = min(bounds2d[2], window[2] + pad), min(bounds2d[3], window[3] + pad)
+    return (x0, y0, x1, y1) if x0 < x1 and y0 < y1 else None
 
 
 class Primitive(Node):
@@ -475,14 +506,24 @@ class FunctionShape(Primitive):
 
         return tight_box(self.field, self.lo, self.hi)
 
+    traced = True
+
     def _section(self, z, spacing):
         """The expression's region traced on its own values (not the box-clamped sdf),
         clipped to the box's rectangle exactly."""
+        return self._window_section(z, spacing, None)
+
+    def _window_section(self, z, spacing, window):
         from fgslice.design.sampled import section_from_sdf
 
         height = np.float64(z)
-        return section_from_sdf(lambda x, y: self.field(x, y, height), (self.lo[0], self.lo[1], self.hi[0], self.hi[1]),
-                                SAMPLED_CELL * spacing, tolerance=spacing / 20)
+        rectangle = (self.lo[0], self.lo[1], self.hi[0], self.hi[1])
+        if window is not None:
+            rectangle = _clipped(rectangle, window, 2.0 * spacing)
+            if rectangle is None:
+                return _EMPTY
+        return section_from_sdf(lambda x, y: self.field(x, y, height), rectangle, SAMPLED_CELL * spacing,
+                                tolerance=spacing / 20)
 
 
 class MeshShape(Primitive):
@@ -597,8 +638,18 @@ class Intersection(Node):
         return np.max([b[0] for b in boxes], axis=0), np.min([b[1] for b in boxes], axis=0)
 
     def _sections(self, zs, spacing):
-        parts = [np.array(c.sections(zs, spacing), dtype=object) for c in self.children]
-        return list(functools.reduce(shapely.intersection, parts))
+        """The children's outlines intersected; a :attr:`~Node.traced` child beside others
+        is traced only within the box of what the others leave at each height."""
+        exact = [c for c in self.children if not c.traced]
+        if not exact or len(exact) == len(self.children):
+            parts = [np.array(c.sections(zs, spacing), dtype=object) for c in self.children]
+            return list(functools.reduce(shapely.intersection, parts))
+        out = functools.reduce(shapely.intersection, [np.array(c.sections(zs, spacing), dtype=object) for c in exact])
+        for child in self.children:
+            if child.traced:
+                traced = child.sections_within(zs, spacing, shapely.bounds(out))
+                out = shapely.intersection(out, np.array(traced, dtype=object))
+        return list(out)
 
 
 class Difference(Node):
@@ -669,6 +720,11 @@ class Affine(Node):
     @property
     def valid_sections(self) -> bool:
         return self.moved_tree is not None and self.moved_tree.valid_sections
+
+    @property
+    def traced(self) -> bool:
+        """A tilting map without a mesh below: traced on its distance."""
+        return self.moved_tree is None and not self.keeps_z_vertical
 
     def sdf(self, x, y, z):
         if self.moved_tree is not None:
