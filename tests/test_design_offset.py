@@ -221,3 +221,7 @@ def test_the_band_of_a_meshs_triangles_is_its_pieces_built_together_and_the_exac
             assert inside.any()
             np.testing.assert_array_equal(inside[clear], distance[clear] < d)
         assert band.section(20.0, 0.05).is_empty
+        own = mesh.section(0.5, 0.05)
+        for grown, cut in ((api.offset(d, mesh), own.union(band.section(0.5, 0.05))),
+                           (api.offset(-d, mesh), own.difference(band.section(0.5, 0.05)))):
+            assert grown.section(0.5, 0.05).symmetric_difference(cut).area < 1e-5  # the section's own clean-up

@@ -188,16 +188,20 @@ class TriangleBand:
         normal: the points whose nearest point of the triangle is inside it), of the
         capsules of radius ``d`` around its edges (nearest point on an edge) and of the balls
         around its corners; their union."""
+        return shapely.union_all(self.pieces(z, spacing))
+
+    def pieces(self, z: float, spacing: float) -> np.ndarray:
+        """The pieces whose union is :meth:`section` (an array of polygons, none empty)."""
         d = self.d
         near = (self.z_lo <= z + d) & (self.z_hi >= z - d)
         if not near.any():
-            return _EMPTY
+            return np.empty(0, dtype=object)
         parts = [_plates(self.triangles[near], self.normals[near], z, d), _discs(self.corners, z, d, spacing)]
         edges = self.edges
         reach = (edges[..., 2].min(axis=1) - d <= z) & (edges[..., 2].max(axis=1) + d >= z)
         parts.append(_capsule_bodies(edges[reach], z, d, spacing))
         parts = np.concatenate(parts)
-        return shapely.union_all(parts[~shapely.is_empty(parts)])
+        return parts[~shapely.is_empty(parts)]
 
 
 def _plates(triangles: np.ndarray, normals: np.ndarray, z: float, d: float) -> np.ndarray:
@@ -286,15 +290,20 @@ def _capsule_bodies(edges: np.ndarray, z: float, r: float, spacing: float) -> np
 class MeshShifted(Shifted):
     """A mesh's distance minus ``d`` mm, its sections exact: the mesh's own section with
     the band of points within ``|d|`` of its triangles added (growing) or cut away
-    (shrinking), :class:`TriangleBand`."""
+    (shrinking), :class:`TriangleBand`; the band's pieces that cannot change the section
+    (inside it when growing, outside it when shrinking) are left out of the union."""
 
     def _sections(self, zs, spacing):
         geometry = self.children[0].geometry
         band = self._band
         out = []
         for z, own in zip(zs, geometry.sections(zs)):
-            cut = band.section(z, spacing)
-            out.append(shapely.union(own, cut) if self.d > 0 else shapely.difference(own, cut))
+            pieces = band.pieces(z, spacing)
+            shapely.prepare(own)
+            if self.d > 0:  # a piece inside the section adds nothing to it
+                out.append(shapely.union(own, shapely.union_all(pieces[~shapely.contains_properly(own, pieces)])))
+            else:  # nor cuts anything away from it when it lies outside
+                out.append(shapely.difference(own, shapely.union_all(pieces[shapely.intersects(own, pieces)])))
         return out
 
     @functools.cached_property
