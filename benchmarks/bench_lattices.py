@@ -10,16 +10,19 @@ Rows:
 
 Both slicers get the same single-material settings (0.2 mm layers, 2 walls, 15 % infill,
 3 top and 3 bottom layers, one skirt loop, centred on a 220 x 220 mm bed, no
-thumbnails), taken in turns; fgslice also slices the bar as designed (graded, default
-settings) for reference. The STL export is timed on its own (it is not part of either
+thumbnails). Each round slices with fgslice and then with PrusaSlicer, so that a machine
+whose speed drifts slows both alike; each run's wall and CPU seconds are printed as it
+ends, then the ratios fgslice / PrusaSlicer of each round and their median (target: at
+most 2). ``--graded`` also slices the bar as designed (graded, default settings) in each
+round, for reference. The STL export is timed on its own (it is not part of either
 slice); the STL's distance from the design's exact surface is printed with its triangle
-count. Prints wall and CPU seconds and the ratio fgslice / PrusaSlicer; PrusaSlicer's
-rows are skipped when ``prusa-slicer`` is not installed.
+count. PrusaSlicer's rows are skipped when ``prusa-slicer`` is not installed.
 
 Run: ``.venv/bin/python benchmarks/bench_lattices.py [--rows bcc_bar,gyroid_cube]
-[--resolution 0.6] [--repeat 1] [--jobs 2]``. At 0.6 mm the STL keeps the struts and walls
-within a few hundredths of a millimetre (printed by the run) and PrusaSlicer finishes;
-at 0.2-0.3 mm (1.8-4 million triangles) it had not finished after 7-13 minutes of CPU.
+[--resolution 0.6] [--repeat 3] [--jobs 2] [--graded]``. At 0.6 mm the STL keeps the
+struts and walls within a few hundredths of a millimetre (printed by the run) and
+PrusaSlicer finishes; at 0.2-0.3 mm (1.8-4 million triangles) it had not finished after
+7-13 minutes of CPU.
 """
 
 from __future__ import annotations
@@ -27,13 +30,14 @@ from __future__ import annotations
 import argparse
 import os
 import shutil
+import statistics
 import sys
 import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from run_all import SINGLE_BENCHY_ARGS, byte_compile, fgslice_cmd, measure, median_run  # noqa: E402
+from run_all import SINGLE_BENCHY_ARGS, byte_compile, fgslice_cmd, measure  # noqa: E402
 
 OPENVCAD_BAR = Path(os.environ.get("FGSLICE_OPENVCAD", "OpenVCAD-Public")) / "examples" / "lattices" / "4_graded_lattice_bar.py"
 """OpenVCAD's own bar, from the checkout ``$FGSLICE_OPENVCAD`` names; else the copy below."""
@@ -91,7 +95,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rows", default=",".join(ROWS))
     parser.add_argument("--resolution", type=float, default=0.6, help="STL grid step, mm")
-    parser.add_argument("--repeat", type=int, default=1)
+    parser.add_argument("--repeat", type=int, default=3, help="rounds of fgslice then PrusaSlicer")
+    parser.add_argument("--graded", action="store_true", help="also slice the bar as designed (graded), for reference")
     parser.add_argument("--jobs", type=int, default=2)
     args = parser.parse_args()
     byte_compile()
@@ -112,26 +117,36 @@ def main() -> None:
             print(f"\n{row}: STL at {args.resolution:g} mm, {(stl.stat().st_size - 84) // 50:,} triangles "
                   f"({size_mb:.0f} MB), exported in {export.wall_s:.1f} s; {deviation(design, stl)}")
             commands = {"fgslice": fgslice_cmd(design, SINGLE_BENCHY_ARGS, work / f"{row}_fg.gcode", args.jobs)}
-            if row == "bcc_bar":
-                commands["fgslice graded"] = fgslice_cmd(design, ("--set", "thumbnails="), work / f"{row}_graded.gcode",
-                                                         args.jobs)
             if prusa:
                 commands["prusa-slicer"] = [prusa, *PRUSA_ARGS, "-o", str(work / f"{row}_prusa.gcode"), str(stl)]
             else:
                 print("  prusa-slicer  skipped: not installed (Debian package prusa-slicer)")
-            rounds = [{name: measure(cmd, work) for name, cmd in commands.items()} for _ in range(args.repeat)]
-            runs = {name: median_run([(r[name], {}) for r in rounds])[0] for name in commands}
-            for name, run in runs.items():
-                if run.returncode != 0:
-                    print(f"  {name:14s} failed (exit {run.returncode}): {run.stderr.strip().splitlines()[-1:]}")
-                    continue
-                ratio = ""
-                if name == "prusa-slicer" and runs["fgslice"].returncode == 0:
-                    ratio = (f"  fgslice/prusa-slicer: wall {runs['fgslice'].wall_s / run.wall_s:.2f}, "
-                             f"cpu {runs['fgslice'].cpu_s / run.cpu_s:.2f}")
-                print(f"  {name:14s} wall {run.wall_s:7.2f} s  cpu {run.cpu_s:7.2f} s  peak {run.peak_mb:6.0f} MB{ratio}",
-                      flush=True)
+            if args.graded and row == "bcc_bar":
+                commands["fgslice graded"] = fgslice_cmd(design, ("--set", "thumbnails="), work / f"{row}_graded.gcode",
+                                                         args.jobs)
+            rounds = []
+            for turn in range(1, args.repeat + 1):
+                rounds.append({})
+                for name, cmd in commands.items():
+                    run = rounds[-1][name] = measure(cmd, work)
+                    state = "" if run.returncode == 0 else f"  failed (exit {run.returncode}): {run.stderr.strip()[-300:]}"
+                    print(f"  round {turn} {name:14s} wall {run.wall_s:7.2f} s  cpu {run.cpu_s:7.2f} s  "
+                          f"peak {run.peak_mb:6.0f} MB{state}", flush=True)
+            print_ratios(row, rounds)
 
+
+def print_ratios(row: str, rounds: list[dict]) -> None:
+    """fgslice / PrusaSlicer, wall and CPU, of each round where both finished, and the
+    median over those rounds."""
+    pairs = [(r["fgslice"], r["prusa-slicer"]) for r in rounds
+             if "prusa-slicer" in r and r["fgslice"].returncode == 0 and r["prusa-slicer"].returncode == 0]
+    if not pairs:
+        return
+    wall = [fg.wall_s / prusa.wall_s for fg, prusa in pairs]
+    cpu = [fg.cpu_s / prusa.cpu_s for fg, prusa in pairs]
+    print(f"  {row} fgslice/prusa-slicer, median of {len(pairs)} rounds: wall {statistics.median(wall):.2f} "
+          f"(rounds {', '.join(f'{w:.2f}' for w in wall)}), cpu {statistics.median(cpu):.2f} "
+          f"(rounds {', '.join(f'{c:.2f}' for c in cpu)})", flush=True)
 
 if __name__ == "__main__":
     main()

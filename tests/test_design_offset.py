@@ -13,7 +13,7 @@ import shapely
 import trimesh
 
 from fgslice.compat.script import load_script
-from fgslice.design import api, nodes
+from fgslice.design import api, nodes, offset
 from fgslice.design.attributes import attribute_fields
 from fgslice.errors import DesignError
 from fgslice.pipeline import slice_to_gcode
@@ -184,3 +184,44 @@ def test_a_mesh_grows_shrinks_and_hollows_with_exact_sections(tmp_path):
     section, distance = grown.section(3.5, 0.05), grown.sdf(x, y, z)
     clear = np.abs(distance) > 0.05
     np.testing.assert_array_equal(shapely.contains_xy(section, x, y)[clear], distance[clear] < 0)
+
+
+def _band_of_pieces(triangles: np.ndarray, z: float, d: float, spacing: float) -> shapely.Geometry:
+    """The band within ``d`` of ``triangles`` at ``z``, one piece at a time: each edge's
+    capsule body (a :class:`nodes.Strut`'s) and each corner's disc (``nodes._circle``),
+    with the plates of :class:`offset.TriangleBand`."""
+    band = offset.TriangleBand(triangles, d)
+    parts = list(offset._plates(band.triangles, band.normals, z, d))
+    for x, y, corner_z in band.corners:
+        if d * d - (z - corner_z) ** 2 > 0:
+            parts.append(nodes._circle(x, y, math.sqrt(d * d - (z - corner_z) ** 2), spacing))
+    parts.extend(nodes.Strut(a, b, d)._body_section(z, spacing) for a, b in band.edges)
+    return shapely.union_all([p for p in parts if not p.is_empty])
+
+
+def test_the_band_of_a_meshs_triangles_is_its_pieces_built_together_and_the_exact_distance(tmp_path):
+    ball = trimesh.creation.icosphere(subdivisions=2, radius=6)
+    ball.apply_transform(trimesh.transformations.euler_matrix(0.3, 0.5, 0.2))
+    block = trimesh.creation.box((8, 3, 5))
+    block.apply_translation((2, 0, 4))
+    triangles = np.concatenate([ball.triangles, block.triangles, [[[0, 0, 0], [1, 1, 1], [2, 2, 2]]]])  # and a degenerate one
+    (tmp_path / "part.stl").write_bytes(trimesh.Trimesh(*trimesh.util.append_faces(
+        [m.vertices for m in (ball, block)], [m.faces for m in (ball, block)])).export(file_type="stl"))
+    mesh = api.mesh(tmp_path / "part.stl")
+    rng = np.random.default_rng(11)
+    for d in (0.8, 1.5):
+        band = offset.TriangleBand(triangles, d)
+        for z in (-5.6, -2.0, 0.0, 3.3, 6.2, 6.9):
+            section = band.section(z, 0.05)
+            assert section.symmetric_difference(_band_of_pieces(triangles, z, d, 0.05)).area < 1e-9
+            x, y = rng.uniform(-9, 9, 4000), rng.uniform(-9, 9, 4000)
+            distance = np.abs(mesh.sdf(x, y, np.full_like(x, z)))
+            clear = np.abs(distance - d) > 0.02
+            inside = shapely.contains_xy(section, x, y)
+            assert inside.any()
+            np.testing.assert_array_equal(inside[clear], distance[clear] < d)
+        assert band.section(20.0, 0.05).is_empty
+        own = mesh.section(0.5, 0.05)
+        for grown, cut in ((api.offset(d, mesh), own.union(band.section(0.5, 0.05))),
+                           (api.offset(-d, mesh), own.difference(band.section(0.5, 0.05)))):
+            assert grown.section(0.5, 0.05).symmetric_difference(cut).area < 1e-5  # the section's own clean-up

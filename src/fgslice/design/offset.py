@@ -16,13 +16,14 @@ distance) has at height ``z`` the section ``buffer(S, sqrt(d^2 - t^2))`` when gr
 (``t``: how far ``z`` lies above or below the prism, 0 beside it) and ``buffer(S, d)``
 when shrinking, empty within ``|d|`` of its top and bottom; a mesh (also one moved by
 a tilting transform) has its own section with the band of points within ``|d|`` of its
-triangles added or cut away (:func:`triangle_band`); any other leaf (functions,
+triangles added or cut away (:class:`TriangleBand`); any other leaf (functions,
 lattices, smooth booleans, tilted primitives) is traced on its shifted distance. Arcs
 are inscribed, vertices within ``spacing / 20`` of the true curve.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -161,21 +162,52 @@ class Shell(nodes.Reshaped):
         self.shape = nodes.Difference([child, shifted(child, -self.thickness)], where)
 
 
-def triangle_band(triangles: np.ndarray, z: float, d: float, spacing: float) -> shapely.Geometry:
-    """The points of the plane at height ``z`` within ``d`` mm (> 0) of any of the
-    ``triangles`` ``(n, 3, 3)``: for each triangle, the section of its plate (the triangle
-    swept ``d`` both ways along its normal: the points whose nearest point of the triangle
-    is inside it) and of the capsules of radius ``d`` around its edges (nearest point on
-    an edge or a corner)."""
-    zs = triangles[..., 2]
-    triangles = triangles[(zs.min(axis=1) <= z + d) & (zs.max(axis=1) >= z - d)]
-    if not len(triangles):
-        return _EMPTY
-    normal = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
-    length = np.linalg.norm(normal, axis=1)
-    keep = length > 0
-    triangles, normal = triangles[keep], normal[keep] / length[keep, None]
-    shift = d * normal[:, None, :]
+class TriangleBand:
+    """The band of points within ``d`` mm (> 0) of ``triangles`` ``(n, 3, 3)``, plane by
+    plane (:meth:`section`). The mesh's features are gathered once: its non-degenerate
+    triangles, their edges and corners, each edge and corner once (by coordinates)."""
+
+    def __init__(self, triangles: np.ndarray, d: float) -> None:
+        self.d = float(d)
+        normal = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+        length = np.linalg.norm(normal, axis=1)
+        keep = length > 0
+        self.triangles, self.normals = triangles[keep], normal[keep] / length[keep, None]
+        edges = np.stack([self.triangles, self.triangles[:, [1, 2, 0]]], axis=2).reshape(-1, 2, 3)
+        sign = np.sign(edges[:, 0] - edges[:, 1])
+        swap = sign[np.arange(len(sign)), np.argmax(sign != 0, axis=1)] > 0  # each edge once, its lower end first
+        edges[swap] = edges[swap][:, ::-1]
+        self.edges = np.unique(edges, axis=0)
+        self.corners = np.unique(self.edges.reshape(-1, 3), axis=0)
+        self.z_lo = self.triangles[..., 2].min(axis=1)
+        self.z_hi = self.triangles[..., 2].max(axis=1)
+
+    def section(self, z: float, spacing: float) -> shapely.Geometry:
+        """The points of the plane at height ``z`` within ``d`` of any triangle: for each
+        triangle, the section of its plate (the triangle swept ``d`` both ways along its
+        normal: the points whose nearest point of the triangle is inside it), of the
+        capsules of radius ``d`` around its edges (nearest point on an edge) and of the balls
+        around its corners; their union."""
+        return shapely.union_all(self.pieces(z, spacing))
+
+    def pieces(self, z: float, spacing: float) -> np.ndarray:
+        """The pieces whose union is :meth:`section` (an array of polygons, none empty)."""
+        d = self.d
+        near = (self.z_lo <= z + d) & (self.z_hi >= z - d)
+        if not near.any():
+            return np.empty(0, dtype=object)
+        parts = [_plates(self.triangles[near], self.normals[near], z, d), _discs(self.corners, z, d, spacing)]
+        edges = self.edges
+        reach = (edges[..., 2].min(axis=1) - d <= z) & (edges[..., 2].max(axis=1) + d >= z)
+        parts.append(_capsule_bodies(edges[reach], z, d, spacing))
+        parts = np.concatenate(parts)
+        return parts[~shapely.is_empty(parts)]
+
+
+def _plates(triangles: np.ndarray, normals: np.ndarray, z: float, d: float) -> np.ndarray:
+    """Sections at ``z`` of the triangles swept ``d`` both ways along their unit
+    ``normals``: convex polygons (an array, the ones that are not polygons left out)."""
+    shift = d * normals[:, None, :]
     corners = np.concatenate([triangles - shift, triangles + shift], axis=1)  # (n, 6, 3): the plate's corners
     pairs = np.array([(0, 1), (1, 2), (2, 0), (3, 4), (4, 5), (5, 3), (0, 3), (1, 4), (2, 5)])
     a, b = corners[:, pairs[:, 0]], corners[:, pairs[:, 1]]  # (n, 9, 3): the plate's edges
@@ -185,35 +217,96 @@ def triangle_band(triangles: np.ndarray, z: float, d: float, spacing: float) -> 
     crossing = (dz != 0) & (t >= 0) & (t <= 1)
     points = a + np.where(crossing, t, 0.0)[..., None] * (b - a)
     owner, edge = np.nonzero(crossing)
-    if owner.size:
-        _, index = np.unique(owner, return_inverse=True)
-        plates = shapely.convex_hull(shapely.multipoints(points[owner, edge, :2], indices=index))
-    else:
-        plates = []
-    parts = [p for p in plates if p.geom_type == "Polygon"]
-    edges = np.stack([triangles, triangles[:, [1, 2, 0]]], axis=2).reshape(-1, 2, 3)
-    sign = np.sign(edges[:, 0] - edges[:, 1])
-    swap = sign[np.arange(len(sign)), np.argmax(sign != 0, axis=1)] > 0  # each edge once, its lower end first
-    edges[swap] = edges[swap][:, ::-1]
-    edges = np.unique(edges, axis=0)
-    ends = np.unique(edges.reshape(-1, 3), axis=0)
-    rho2 = d * d - (z - ends[:, 2]) ** 2
-    parts.extend(nodes._circle(x, y, math.sqrt(r2), spacing) for (x, y, _), r2 in zip(ends, rho2) if r2 > 0)
-    reach = (edges[..., 2].min(axis=1) - d <= z) & (edges[..., 2].max(axis=1) + d >= z)
-    parts.extend(nodes.Strut(start, end, d)._body_section(z, spacing) for start, end in edges[reach])
-    return shapely.union_all([p for p in parts if not p.is_empty])
+    if not owner.size:
+        return np.empty(0, dtype=object)
+    _, index = np.unique(owner, return_inverse=True)
+    plates = shapely.convex_hull(shapely.multipoints(points[owner, edge, :2], indices=index))
+    return plates[shapely.get_type_id(plates) == shapely.GeometryType.POLYGON]
+
+
+def _discs(corners: np.ndarray, z: float, d: float, spacing: float) -> np.ndarray:
+    """Sections at ``z`` of the balls of radius ``d`` around ``corners`` ``(k, 3)``: the
+    polygons of :func:`fgslice.design.nodes._circle`, built together."""
+    rho2 = d * d - (z - corners[:, 2]) ** 2
+    inside = rho2 > 0
+    centres, radii = corners[inside, :2], np.sqrt(rho2[inside])
+    counts = np.array([nodes._segments(r, spacing) for r in radii], dtype=np.int64)
+    out = []
+    for count in np.unique(counts):
+        pick = counts == count
+        cos, sin = nodes._unit_circle(int(count))
+        r = radii[pick, None]
+        rings = np.stack([centres[pick, 0, None] + r * cos, centres[pick, 1, None] + r * sin], axis=-1)
+        out.append(shapely.polygons(rings))
+    return np.concatenate(out) if out else np.empty(0, dtype=object)
+
+
+def _capsule_bodies(edges: np.ndarray, z: float, r: float, spacing: float) -> np.ndarray:
+    """Sections at ``z`` of the cylindrical bodies (between the end planes) of the
+    capsules of radius ``r`` around ``edges`` ``(m, 2, 3)``: the polygons of
+    :meth:`fgslice.design.nodes.Strut._body_section`, built together."""
+    a = edges[:, 0]
+    ba = edges[:, 1] - a
+    length = np.sqrt(np.sum(ba * ba, axis=1))
+    edges, a, ba, length = edges[length > 0], a[length > 0], ba[length > 0], length[length > 0]
+    u = ba / length[:, None]
+    w = z - a[:, 2]
+    rho = np.hypot(u[:, 0], u[:, 1])
+    upright = rho < 1e-12
+    axial = w[upright] * u[upright, 2]
+    standing = a[upright][(axial >= 0) & (axial <= length[upright])]
+    count = nodes._segments(r, spacing)
+    cos, sin = nodes._unit_circle(count)
+    out = [shapely.polygons(np.stack([standing[:, 0, None] + r * cos, standing[:, 1, None] + r * sin], axis=-1))]
+    slanted = ~upright
+    a, u, w, rho, length = a[slanted], u[slanted], w[slanted], rho[slanted], length[slanted]
+    uz = u[:, 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s_lo = np.minimum(-w * uz / rho, (length - w * uz) / rho)
+        s_hi = np.maximum(-w * uz / rho, (length - w * uz) / rho)
+        e_lo = np.minimum((w * rho - r) / uz, (w * rho + r) / uz)
+        e_hi = np.maximum((w * rho - r) / uz, (w * rho + r) / uz)
+    tilted = np.abs(uz) > 1e-12
+    s_lo = np.where(tilted, np.maximum(s_lo, e_lo), s_lo)
+    s_hi = np.where(tilted, np.minimum(s_hi, e_hi), s_hi)
+    keep = (tilted | (np.abs(w) < r)) & (s_hi > s_lo)
+    a, u, w, rho, uz, s_lo, s_hi = (v[keep] for v in (a, u, w, rho, uz, s_lo, s_hi))
+    n_samples = max(2, count // 2)
+    ease = (1 - np.cos(np.linspace(0, np.pi, n_samples))) / 2
+    s = s_lo[:, None] + (s_hi - s_lo)[:, None] * ease
+    n = np.sqrt(np.maximum(r**2 - (s * uz[:, None] - (w * rho)[:, None]) ** 2, 0))
+    along = u[:, :2] / rho[:, None]
+    across = np.stack([-along[:, 1], along[:, 0]], axis=1)
+    ss = np.concatenate([s, s[:, ::-1]], axis=1)
+    nn = np.concatenate([n, -n[:, ::-1]], axis=1)
+    rings = a[:, None, :2] + ss[..., None] * along[:, None, :] + nn[..., None] * across[:, None, :]
+    bodies = shapely.polygons(rings)
+    invalid = ~shapely.is_valid(bodies)
+    bodies[invalid] = shapely.make_valid(bodies[invalid])
+    out.append(bodies)
+    return np.concatenate(out)
 
 
 class MeshShifted(Shifted):
     """A mesh's distance minus ``d`` mm, its sections exact: the mesh's own section with
     the band of points within ``|d|`` of its triangles added (growing) or cut away
-    (shrinking), :func:`triangle_band`."""
+    (shrinking), :class:`TriangleBand`; the band's pieces that cannot change the section
+    (inside it when growing, outside it when shrinking) are left out of the union."""
 
     def _sections(self, zs, spacing):
         geometry = self.children[0].geometry
-        triangles = geometry._vertices[geometry._faces]
+        band = self._band
         out = []
         for z, own in zip(zs, geometry.sections(zs)):
-            band = triangle_band(triangles, z, abs(self.d), spacing)
-            out.append(shapely.union(own, band) if self.d > 0 else shapely.difference(own, band))
+            pieces = band.pieces(z, spacing)
+            shapely.prepare(own)
+            if self.d > 0:  # a piece inside the section adds nothing to it
+                out.append(shapely.union(own, shapely.union_all(pieces[~shapely.contains_properly(own, pieces)])))
+            else:  # nor cuts anything away from it when it lies outside
+                out.append(shapely.difference(own, shapely.union_all(pieces[shapely.intersects(own, pieces)])))
         return out
+
+    @functools.cached_property
+    def _band(self) -> TriangleBand:
+        geometry = self.children[0].geometry
+        return TriangleBand(geometry._vertices[geometry._faces], abs(self.d))
