@@ -33,7 +33,6 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from fgslice.design.blend_grid import BlendGrid
 from fgslice.design.nodes import CHUNK, NOWHERE, Columns, MaterialNode, Node, Where, normalized
 
 LATTICE_POINTS = 512
@@ -95,6 +94,8 @@ class Blend(MaterialNode):
             key = (tuple(columns.index), columns.void_only)
             grids = self.__dict__.setdefault("_grids", {})
             if key not in grids:
+                from fgslice.design.blend_grid import BlendGrid  # scipy, for blends over meshes only
+
                 grids[key] = BlendGrid(self._body, self.size, columns, whole)
             return grids[key](x, y, z)
         out = np.empty((n, columns.k))
