@@ -159,8 +159,14 @@ def _by_contact(slivers, own, cores, core_color, n_colors: int, width: float) ->
 
 
 def _uncovered_near(regions: np.ndarray, near: np.ndarray, width: float) -> np.ndarray:
-    """Area of each region narrower than a bead (minus its opening by ``w / 2``) inside ``near``."""
-    narrow = shapely.difference(regions, opening(regions, width / 2))
+    """Area of each region narrower than a bead (minus its opening by ``w / 2``) inside ``near``.
+    A region whose rings touch themselves (a union of strut sections), on which GEOS's
+    overlay fails, is repaired first."""
+    try:
+        narrow = shapely.difference(regions, opening(regions, width / 2))
+    except shapely.errors.GEOSException:
+        regions = polygonal_each(shapely.make_valid(regions))
+        narrow = shapely.difference(regions, opening(regions, width / 2))
     return shapely.area(shapely.intersection(narrow, near))
 
 
