@@ -104,23 +104,23 @@ def read_shape(path: str | Path, kind: str | None = None):
 
 
 def _read_step(path: Path):
-    from OCP.IFSelect import IFSelect_RetDone
     from OCP.STEPControl import STEPControl_Reader
 
-    reader = STEPControl_Reader()
-    if reader.ReadFile(str(path)) != IFSelect_RetDone:
-        raise MeshError("not a readable STEP file", file=path, hint=_EXPORT_HINT)
-    reader.TransferRoots()
-    return reader.OneShape()
+    return _read_with(STEPControl_Reader(), path, "STEP")
 
 
 def _read_iges(path: Path):
-    from OCP.IFSelect import IFSelect_RetDone
     from OCP.IGESControl import IGESControl_Reader
 
-    reader = IGESControl_Reader()
+    return _read_with(IGESControl_Reader(), path, "IGES")
+
+
+def _read_with(reader, path: Path, kind: str):
+    """The shape an Open CASCADE exchange ``reader`` (STEP, IGES) reads from ``path``."""
+    from OCP.IFSelect import IFSelect_RetDone
+
     if reader.ReadFile(str(path)) != IFSelect_RetDone:
-        raise MeshError("not a readable IGES file", file=path, hint=_EXPORT_HINT)
+        raise MeshError(f"not a readable {kind} file", file=path, hint=_EXPORT_HINT)
     reader.TransferRoots()
     return reader.OneShape()
 
