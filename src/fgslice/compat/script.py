@@ -5,7 +5,8 @@ The script runs as Python, in a fresh ``__main__`` namespace, with ``pyvcad``,
 importable as :mod:`fgslice.compat.pyvcad`, :mod:`fgslice.compat.pyvcad_rendering`,
 :mod:`fgslice.compat.pyvcad_compilers`, :mod:`fgslice.compat.pyvcad_metamaterials` and
 :mod:`fgslice.compat.pyvcad_attribute_resolver`, and
-``numba`` as :mod:`fgslice.compat.numba_standin` (``sys.modules`` entries and the script's folder
+``numba`` as :mod:`fgslice.compat.numba_standin`, ``pyvcad_rendering.render`` and its other
+modules as :mod:`fgslice.compat.pyvcad_rendering`'s (``sys.modules`` entries and the script's folder
 on ``sys.path``, both restored afterwards). The design is the root passed to the last
 ``Export`` (or compiled by a ``pyvcad_compilers`` compiler), else to the last ``Render``, else the top-level variable ``root``. Any error —
 the script's own exception, an unsupported pyvcad name or argument, an invalid value — is
@@ -70,7 +71,8 @@ def _pyvcad_importable(folder: Path):
 
     names = {"pyvcad": pyvcad, "pyvcad_rendering": pyvcad_rendering, "pyvcad_compilers": pyvcad_compilers,
              "pyvcad_metamaterials": pyvcad_metamaterials, "pyvcad_attribute_resolver": pyvcad_attribute_resolver,
-             "numba": numba_standin}
+             "numba": numba_standin,
+             **{f"pyvcad_rendering.{name}": module for name, module in pyvcad_rendering.MODULES.items()}}
     saved = {name: sys.modules.get(name) for name in names}
     sys.modules.update(names)
     sys.path.insert(0, str(folder))
