@@ -259,11 +259,11 @@ def test_an_endless_tile_is_refused_by_name(tmp_path):
     assert "Intersection" in error.value.hint
 
 
-def test_tile_takes_only_a_graph_lattice(tmp_path):
+def test_a_tile_of_any_node_outside_an_intersection_is_refused_at_its_line(tmp_path):
     path = tmp_path / "tile.py"
     path.write_text("import pyvcad as pv\nroot = pv.Tile(pv.Sphere(pv.Vec3(0, 0, 0), 3, 1))\n")
-    with pytest.raises(DesignError, match="Tile repeats a GraphLattice") as error:
-        load_script(path)
+    with pytest.raises(DesignError, match="tile repeats its cell without end") as error:
+        load_script(path).bounds()
     assert error.value.line == 2
 
 

@@ -30,12 +30,13 @@ from pathlib import Path
 
 import numpy as np
 
-from fgslice.compat import context
+from fgslice.compat import context, numba_standin
 from fgslice.design import api, lattice, nodes, smooth
 from fgslice.design.expressions import combine_expressions, compile_expression
 from fgslice.design.language import resolve_mesh_path
 from fgslice.design.extrusion import polygon_extrude
 from fgslice.design.text import text as text_shape
+from fgslice.design.tile import tile
 from fgslice.errors import DesignError, FgsliceError, MeshError
 
 _DOCS = "see the supported subset in docs/language.md"
@@ -257,6 +258,8 @@ def _field(owner: str, function, *, with_d: bool):
         return function
     if not callable(function):
         raise DesignError(f"{owner}: a function is an expression string or a Python function, got {function!r}")
+    if isinstance(function, numba_standin.CFunc):
+        function = _of_xyz(owner, function)
     function = _by_name(function, with_d) or function
     takes_d = with_d and _accepts(function, 9)
     if not takes_d and not _accepts(function, 8):
@@ -271,6 +274,20 @@ def _field(owner: str, function, *, with_d: bool):
 
     without_d.__name__ = point.__name__
     return without_d
+
+
+def _of_xyz(owner: str, function: numba_standin.CFunc) -> Callable:
+    """OpenVCAD 3's ``@cfunc`` of ``(x, y, z)`` as a function of the eight coordinates."""
+    if function.arity != 3:
+        raise DesignError(f"{owner}: a @cfunc takes (x, y, z), '{function.__name__}' takes {function.arity} arguments",
+                          hint="declare it as @cfunc(types.float64(types.float64, types.float64, types.float64))")
+    python = function.py_func
+
+    def of_xyz(x, y, z, rho, phic, r, theta, phis):
+        return python(x, y, z)
+
+    of_xyz.__name__ = function.__name__
+    return of_xyz
 
 
 _COORDINATES = ("x", "y", "z", "rho", "phic", "r", "theta", "phis", "d")
@@ -458,15 +475,32 @@ class Strut(_Leaf):
 
 
 class Mesh(_Leaf):
-    """``Mesh(path, material=1, disable_validation=False)``; a ``sample_size`` (Vec3) or
-    ``override_voxel_size`` (number) second argument is accepted: fgslice slices the mesh
-    itself, not a voxelization. Relative paths: the script's folder, then the cwd."""
+    """``Mesh(path, material=1, disable_validation=False)`` (OpenVCAD 2) or ``Mesh(path,
+    center=False, disable_validation=False, override_voxel_size=None,
+    compensate_slicer_ras=False)`` (OpenVCAD 3); either may take a ``sample_size`` (Vec3)
+    second argument. ``center`` moves the mesh's bounding-box centre to the origin;
+    ``compensate_slicer_ras`` mirrors it across the XZ plane (y -> -y) first, as OpenVCAD
+    does for 3D Slicer's RAS exports. The voxel sizes are accepted and not used: fgslice
+    slices the mesh itself, not a voxelization. Relative paths: the script's folder, then
+    the cwd."""
+
+    _V3 = ("center", "disable_validation", "override_voxel_size", "compensate_slicer_ras")
 
     def __init__(self, path, *args, **kwargs) -> None:
         if args and isinstance(args[0], (Vec3, float)):
             args = args[1:]
-        material, _ = _bind("Mesh", ("material", "disable_validation"), args, kwargs,
-                            {"material": 1, "disable_validation": False})
+        kwargs.pop("sample_size", None)
+        v3 = (args and isinstance(args[0], bool)) or bool(set(kwargs) & {"center", "override_voxel_size",
+                                                                           "compensate_slicer_ras"})
+        if v3:
+            center, _, _, mirror = _bind("Mesh", self._V3, args, kwargs, {
+                "center": False, "disable_validation": False, "override_voxel_size": None,
+                "compensate_slicer_ras": False})
+            material = 1
+        else:
+            material, _ = _bind("Mesh", ("material", "disable_validation"), args, kwargs,
+                                {"material": 1, "disable_validation": False})
+            center = mirror = False
         if not isinstance(path, (str, Path)):
             raise DesignError(f"Mesh: path must be a file name, got {path!r}", hint=_DOCS)
         run = context.current()
@@ -476,6 +510,11 @@ class Mesh(_Leaf):
         except MeshError as error:
             error.file = error.line = error.column = error.source_line = None
             raise
+        if mirror:
+            node = api.scale((1.0, -1.0, 1.0), node)
+        if center:
+            lo, hi = node.bounds()
+            node = api.translate(tuple(-(lo + hi) / 2), node)
         super().__init__(node)
 
 
@@ -503,11 +542,14 @@ class CAD(_Leaf):
 
 
 class Function(_Leaf):
-    """``Function(function, material=1, min=Vec3(-10, -10, -10), max=Vec3(10, 10, 10))``:
-    inside where the function is <= 0, within the box from ``min`` to ``max`` (OpenVCAD's
-    default box: 20 mm about the origin)."""
+    """``Function(function, material=1, min=Vec3(-10, -10, -10), max=Vec3(10, 10, 10))``
+    (OpenVCAD 2) or ``Function(function, min, max)`` (OpenVCAD 3, no material): inside
+    where the function is <= 0, within the box from ``min`` to ``max`` (OpenVCAD's default
+    box: 20 mm about the origin)."""
 
     def __init__(self, *args, **kwargs) -> None:
+        if len(args) >= 2 and isinstance(args[1], Vec3):
+            args = (args[0], 1, *args[1:])
         function, material, lo, hi = _bind("Function", ("function", "material", "min", "max"), args, kwargs,
                                            {"material": 1, "min": Vec3(-10, -10, -10), "max": Vec3(10, 10, 10)})
         function = _field("Function", function, with_d=False)
@@ -583,8 +625,10 @@ def _edges(owner: str, edges) -> np.ndarray:
 
 class Tile(Node):
     """``Tile([cell_x, cell_y, cell_z][, child])`` or ``Tile()`` with ``set_child``: repeats
-    a ``GraphLattice`` without end, every cell of the given sizes or else every box of
-    the lattice's edges. It has no bounds: intersect it with a bounded shape."""
+    the child without end, every cell of the given sizes (mm) or else every box of the
+    child's bounds, the cell centred on the child's bounds (:mod:`fgslice.design.tile`;
+    a ``GraphLattice`` child repeats its struts exactly, :mod:`fgslice.design.lattice`).
+    It has no bounds: intersect it with a bounded shape."""
 
     def __init__(self, *args) -> None:
         super().__init__()
@@ -598,16 +642,15 @@ class Tile(Node):
             raise DesignError(f"Tile: cell sizes must be positive, got {tuple(self._cell)}")
 
     def set_child(self, child) -> None:
-        """The lattice to repeat: a ``GraphLattice``."""
-        if not isinstance(child, GraphLattice):
-            raise DesignError(f"Tile repeats a GraphLattice; fgslice does not tile a {type(child).__name__}",
-                              hint="make the cell with pyvcad.GraphLattice(type, size, radius, material)")
-        self._child = child
+        """The node to repeat."""
+        self._child = _child("Tile", child)
 
     def _build(self, convert) -> nodes.Node:
         if self._child is None:
-            raise DesignError("Tile has no child", hint="give it a GraphLattice with set_child(node)")
+            raise DesignError("Tile has no child", hint="give it the node to repeat with set_child(node)")
         cell = self._child
+        if not isinstance(cell, GraphLattice):
+            return tile(convert(cell), self._cell)
         lo, hi = cell.extent
         period = self._cell if self._cell is not None else hi - lo
         if not np.all(period > 0):
@@ -921,9 +964,12 @@ __all__ += ["FontAspect", "HorizontalAlignment", "VerticalAlignment", "Text"]
 
 class PolygonExtrude(_Leaf):
     """``PolygonExtrude(vertices, height, symmetric=False, material=1)``: a planar polygon of
-    ``Vec3`` vertices extruded along its normal (:func:`fgslice.design.extrusion.polygon_extrude`)."""
+    ``Vec3`` vertices extruded along its normal (:func:`fgslice.design.extrusion.polygon_extrude`);
+    ``PolygonExtrude()`` is the unit square from the origin to (1, 1, 0) extruded 1 mm in +Z."""
 
     def __init__(self, *args, **kwargs) -> None:
+        if not args and not kwargs:
+            args = ([Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0)], 1.0)
         vertices, height, symmetric, material = _bind(
             "PolygonExtrude", ("vertices", "height", "symmetric", "material"), args, kwargs,
             {"symmetric": False, "material": 1})

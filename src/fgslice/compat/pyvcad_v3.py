@@ -367,6 +367,8 @@ class VolumeFractionsAttribute(Attribute):
             self._add("VolumeFractionsAttribute", field, material)
 
     def _add(self, owner: str, field, material) -> None:
+        if isinstance(material, numbers.Integral) and not isinstance(material, (bool, v2.MaterialId)):
+            material = v2.default_materials.name_of(material)
         if not isinstance(material, v2.MaterialId):
             raise DesignError(f"{owner}: a material is an id from default_materials.id(name), got {material!r}",
                               hint=_DOCS)
@@ -653,10 +655,11 @@ class BBoxIntersection(v2.Intersection):
 
 class Torus(v2._Leaf):
     """``Torus(r1, r2)``: a ring about the Z axis, centred at the origin: ``r1`` from the
-    axis to the tube's centre, tube radius ``r2`` (mm)."""
+    axis to the tube's centre, tube radius ``r2`` (mm); ``Torus()`` is ``Torus(2, 1)``."""
 
     def __init__(self, *args, **kwargs) -> None:
-        r1, r2 = (v2._number("Torus", n, v) for n, v in zip(("r1", "r2"), v2._bind("Torus", ("r1", "r2"), args, kwargs, {})))
+        bound = v2._bind("Torus", ("r1", "r2"), args, kwargs, {} if args or kwargs else {"r1": 2.0, "r2": 1.0})
+        r1, r2 = (v2._number("Torus", n, v) for n, v in zip(("r1", "r2"), bound))
         if not 0 < r2 < r1:
             raise DesignError(f"Torus needs 0 < r2 < r1, got r1 = {r1:g}, r2 = {r2:g}")
         reach = r1 + r2

@@ -30,6 +30,7 @@ import numpy as np
 from fgslice.design import nodes
 from fgslice.design.attribute_ops import AttributeCarrier, AttributeOperator
 from fgslice.design.membership import owners
+from fgslice.design.tile import Tiled
 from fgslice.errors import DesignError, did_you_mean
 
 ROLE_SPEEDS = {
@@ -142,7 +143,7 @@ class AttributeFields:
             ctx = node.values(x, y, z)
         if name not in self._below[id(node)] or not node.children:
             return ctx
-        if isinstance(node, nodes.Affine):
+        if isinstance(node, (nodes.Affine, Tiled)):
             return self._values(node._body, name, *node.local(x, y, z), ctx)
         children = node.children
         if isinstance(node, (nodes.Intersection, nodes.Difference)) or len(children) == 1:
