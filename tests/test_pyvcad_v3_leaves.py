@@ -246,3 +246,8 @@ def test_volume_fractions_take_plain_material_numbers_as_fgrade_does(tmp_path):
         assert fractions[:, names.index("blue")] == pytest.approx(0.5 - x / 40)
     with pytest.raises(FgsliceError, match="material id 99 is not in the material table"):
         _design(tmp_path, 'pv.VolumeFractionsAttribute([("1", 99)])\n')
+
+
+def test_rotate_with_only_a_child_turns_nothing(tmp_path):
+    design = _design(tmp_path, "root = pv.Rotate(pv.RectPrism(pv.Vec3(1, 2, 3), pv.Vec3(2, 4, 6)))\n")
+    assert _bounds(design) == pytest.approx([0, 0, 0, 2, 4, 6])

@@ -838,7 +838,7 @@ class Rotate(_Unary):
     def __init__(self, *args) -> None:
         super().__init__("Rotate", args, {0: "", 1: "angles: Vec3", 3: "pitch, yaw, roll",
                                           4: "pitch, yaw, roll, around: Vec3"})
-        angles = _vec3("Rotate", "angles", self._args[0]) if len(self._args) == 1 else self._args[:3]
+        angles = _vec3("Rotate", "angles", self._args[0]) if len(self._args) == 1 else self._args[:3] or (0, 0, 0)
         self._angles = tuple(_number("Rotate", a, v) for a, v in zip(("pitch", "yaw", "roll"), angles))
         self._around = _vec3("Rotate", "around", self._args[3]) if len(self._args) == 4 else (0.0, 0.0, 0.0)
 
