@@ -678,7 +678,27 @@ class Difference(Node):
         return firsts
 
 
-class Affine(Node):
+class MappedBody:
+    """A node whose materials are those of its one child ``_body`` at mapped points
+    (:meth:`local`): whether they ignore the coordinates, or can be void, is the child's."""
+
+    _body: Node
+
+    @functools.cached_property
+    def coordinate_free(self) -> bool:
+        return self._body.coordinate_free
+
+    @functools.cached_property
+    def can_be_void(self) -> bool:
+        return self._body.can_be_void
+
+    def raw(self, x, y, z, columns):
+        if self._body.coordinate_free:
+            return self._body.raw(x, y, z, columns)
+        return self._body.raw(*self.local(x, y, z), columns)
+
+
+class Affine(MappedBody, Node):
     """A linear map ``p = M q + t`` from the child's frame ``q`` to this node's frame ``p``.
 
     Sections are exact when ``M`` keeps the Z axis vertical (no tilt): the child's
@@ -767,19 +787,9 @@ class Affine(Node):
         return list(shapely.transform(np.array(children, dtype=object), plane_map))
 
     def raw(self, x, y, z, columns):
-        if self._body.coordinate_free:
-            return self._body.raw(x, y, z, columns)
-        if self.moved_tree is not None:
+        if self.moved_tree is not None and not self._body.coordinate_free:
             return self.moved_tree.raw(x, y, z, columns)
-        return self._body.raw(*self.local(x, y, z), columns)
-
-    @functools.cached_property
-    def coordinate_free(self) -> bool:
-        return self._body.coordinate_free
-
-    @functools.cached_property
-    def can_be_void(self) -> bool:
-        return self._body.can_be_void
+        return super().raw(x, y, z, columns)
 
 
 class Translate(Affine):

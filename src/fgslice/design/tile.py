@@ -13,7 +13,6 @@ rectangle, copied to every cell that meets the window.
 
 from __future__ import annotations
 
-import functools
 import math
 
 import numpy as np
@@ -21,14 +20,14 @@ import shapely
 import shapely.affinity
 
 from fgslice.design.lattice import Periodic
-from fgslice.design.nodes import NOWHERE, Node, Where, as_multipolygon
+from fgslice.design.nodes import NOWHERE, MappedBody, Node, Where, as_multipolygon
 from fgslice.errors import DesignError
 
 MAX_CELLS = 250_000
 """Most cells one layer of a tiling may cover (each is one copy of the child's outline)."""
 
 
-class Tiled(Periodic):
+class Tiled(MappedBody, Periodic):
     """``child`` repeated every ``period`` (mm, per axis) from the cell corner ``origin``."""
 
     kind = "tile"
@@ -45,19 +44,6 @@ class Tiled(Periodic):
     def sdf(self, x, y, z):
         x, y, z = np.broadcast_arrays(x, y, z)
         return self._clip(self._body.sdf(*self.fold(x, y, z)), x, y, z)
-
-    def raw(self, x, y, z, columns):
-        if self._body.coordinate_free:
-            return self._body.raw(x, y, z, columns)
-        return self._body.raw(*self.fold(x, y, z), columns)
-
-    @functools.cached_property
-    def coordinate_free(self) -> bool:
-        return self._body.coordinate_free
-
-    @functools.cached_property
-    def can_be_void(self) -> bool:
-        return self._body.can_be_void
 
     def _sections(self, zs, spacing):
         lo, hi = self._window()
