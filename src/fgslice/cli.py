@@ -178,11 +178,12 @@ def _write_report(path: Path, result, settings, design, err: bool = False) -> No
     from fgslice.analysis.fidelity import fidelity, simulation_stats
     from fgslice.analysis.simulate import simulate
     from fgslice.design.color_mix import mix_colors
+    from fgslice.design.profile_tables import apply_attribute_tables
     from fgslice.machine.state_dialect import dialect_for
     from fgslice.preview.report import write_report
     from fgslice.slicing.states import make_palette
 
-    design = mix_colors(design, settings)
+    design = mix_colors(apply_attribute_tables(design, settings), settings)
     palette = make_palette(len(design.materials), settings.colors, settings.palette, result.stats.get("temperature_levels"))
     simulated = simulate(result.output, design, None, settings)
     write_report(

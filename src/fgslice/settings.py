@@ -112,6 +112,7 @@ class _Fields(msgspec.Struct, kw_only=True, frozen=True, forbid_unknown_fields=T
     support_mix: Annotated[str, Meta(description="mixing hotend: support is printed in this mix of the design's materials, fractions comma-separated (e.g. '1,0'), a state of its own outside the palette; empty: support_state")] = ""
     support_tool: Annotated[int, Meta(ge=-1, le=63, description="toolchanger: the tool support is printed with (e.g. soluble PVA), one the palette's colors do not use (colors <= support_tool < tool_count); -1: none, support_state decides")] = -1
     support_temperature: Annotated[float, Meta(ge=0, le=500, description="nozzle temperature of support_tool, C; 0: nozzle_temperature")] = 0.0
+    attribute_tables: Annotated[str, Meta(description="tables from a design's attributes to machine attributes, 'source -> target: key value, key value, ...' separated by ';' (linear between rows, flat beyond), e.g. 'density -> temperature: 0.4 250, 1.2 205': applied where the design sets the source and not the target")] = ""
     filament_costs: Annotated[str, Meta(description="cost per kg of each loaded filament (mixing channel or tool), comma-separated, as PrusaSlicer's filament_cost; support_state = cheapest prints support in the cheapest palette color")] = ""
     dont_support_bridges: Annotated[bool, Meta(description="no support under overhangs that lines across land on the layer below at both ends (bridges), as PrusaSlicer's")] = True
 

@@ -48,7 +48,7 @@ from fgslice.compat.pyvcad_v3_samples import (TYPE_NAMES, AttributeSamples, Retu
                                               return_type_by_name)
 from fgslice.design import api, lookup_tables, nodes
 from fgslice.design.attribute_ops import AverageFractions, ConvertAttributes, Reducer, ResolveConflicts
-from fgslice.design.attributes import ROLE_SPEEDS
+from fgslice.design.attributes import OPENVCAD_MACHINE_NAMES as MACHINE_NAMES
 from fgslice.design.attributes import Attribute as AttributeNode
 from fgslice.design.derived_fields import evaluate, named_expression
 from fgslice.design.expressions import compile_expression
@@ -102,14 +102,6 @@ class _Names:
 
 
 DefaultAttributes = _Names()
-
-MACHINE_NAMES = {"temperature": ("temperature", 1.0), "flow_rate": ("flow", 100.0),
-                 "infill_density": ("infill_density", 1.0),
-                 "fuzzy_skin_thickness": ("fuzzy_skin_thickness", 1.0),
-                 "fuzzy_skin_point_distance": ("fuzzy_skin_point_distance", 1.0),
-                 **{name: (name, 1.0) for name in ROLE_SPEEDS}}
-"""OpenVCAD attribute name -> (fgslice attribute, factor from OpenVCAD's unit to fgslice's)."""
-
 
 def _fgslice_name(name: str) -> tuple[str, float]:
     """The fgslice attribute an OpenVCAD scalar attribute is, with its unit factor."""

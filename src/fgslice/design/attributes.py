@@ -44,6 +44,13 @@ ROLE_SPEEDS = {
 (``;TYPE:`` names) whose feed rate they set per segment, instead of the feature's speed
 times ``speed``."""
 
+OPENVCAD_MACHINE_NAMES = {"temperature": ("temperature", 1.0), "flow_rate": ("flow", 100.0),
+                          "infill_density": ("infill_density", 1.0),
+                          "fuzzy_skin_thickness": ("fuzzy_skin_thickness", 1.0),
+                          "fuzzy_skin_point_distance": ("fuzzy_skin_point_distance", 1.0),
+                          **{name: (name, 1.0) for name in ROLE_SPEEDS}}
+"""OpenVCAD attribute name -> (fgslice attribute, factor from OpenVCAD's unit to fgslice's)."""
+
 UNITS = {"temperature": "C", "flow": "%", "fan": "%", "speed": "%", "infill_density": "%",
          "fuzzy_skin_thickness": "mm", "fuzzy_skin_point_distance": "mm", **dict.fromkeys(ROLE_SPEEDS, "mm/s")}
 """Every attribute name with the unit of its values."""

@@ -111,8 +111,9 @@ def check_design(design: Design, *, samples: int = DEFAULT_SAMPLES, settings=Non
     process attributes (the defaults when None)."""
     if settings is not None:
         from fgslice.design.color_mix import mix_colors
+        from fgslice.design.profile_tables import apply_attribute_tables
 
-        design = mix_colors(design, settings)
+        design = mix_colors(apply_attribute_tables(design, settings), settings)
     bounds = design.bounds()
     node_count = design.node_count if isinstance(design, NodeDesign) else 0
     report = CheckReport(list(design.materials), bounds, node_count)
@@ -249,9 +250,14 @@ def _undriven(design: Design, name: str, settings) -> str:
     machine: a colour channel may drive the mixture (:mod:`fgslice.design.color_mix`)."""
     from fgslice.design.attributes import INTENT_HINT
     from fgslice.design.color_mix import COLOR_ATTRIBUTES, ColorMix
+    from fgslice.design.profile_tables import profile_targets
 
+    targets = profile_targets(design, name)
+    if targets:
+        return f"{', '.join(targets)} through the profile's attribute_tables"
     if name.partition(".")[0] not in COLOR_ATTRIBUTES:
-        return f"nothing on this machine: {INTENT_HINT}"
+        return (f"nothing on this machine: {INTENT_HINT}, or give the profile a table of your filament: "
+                f"attribute_tables = '{name} -> temperature: key value, key value, ...'")
     root = getattr(design, "root", None)
     if isinstance(root, ColorMix) and name in root.channels:
         return f"the mixture of the filaments {settings.filament_colors} nearest to the colour (CIELAB)"
