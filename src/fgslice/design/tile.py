@@ -17,7 +17,6 @@ import math
 
 import numpy as np
 import shapely
-import shapely.affinity
 
 from fgslice.design.lattice import Periodic
 from fgslice.design.nodes import NOWHERE, MappedBody, Node, Where, as_multipolygon
@@ -50,16 +49,20 @@ class Tiled(MappedBody, Periodic):
         folded = [float(self.origin[2] + np.mod(z - self.origin[2], self.period[2])) for z in zs]
         cell = shapely.box(self.origin[0], self.origin[1], self.origin[0] + self.period[0],
                            self.origin[1] + self.period[1])
-        window = shapely.box(lo[0], lo[1], hi[0], hi[1])
         shifts = self._shifts(lo, hi)
         out = []
         for outline in self._body.sections(folded, spacing):
-            piece = shapely.intersection(outline, cell)
+            piece = as_multipolygon(shapely.intersection(outline, cell))
             if piece.is_empty:
-                out.append(as_multipolygon(piece))
+                out.append(piece)
                 continue
-            copies = [shapely.affinity.translate(piece, dx, dy) for dx, dy in shifts]
-            out.append(as_multipolygon(shapely.intersection(shapely.union_all(copies), window)))
+            count = shapely.get_num_coordinates(piece)
+            copies = shapely.transform(np.full(len(shifts), piece, dtype=object),
+                                       lambda q: q + np.repeat(shifts, count, axis=0))
+            inner = shapely.contains_properly(cell, piece)  # then the copies are apart: no union needed
+            parts = shapely.get_parts(copies)
+            tiled = shapely.multipolygons(parts) if inner else shapely.union_all(copies)
+            out.append(as_multipolygon(shapely.clip_by_rect(tiled, lo[0], lo[1], hi[0], hi[1])))
         return out
 
     def _shifts(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
