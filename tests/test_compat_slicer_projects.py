@@ -115,3 +115,103 @@ def test_volume_fractions_bar_mixture_follows_the_fractions(tmp_path, name):
     # eight palette bins of 1/8: the commanded share is the field's within a bin
     assert np.abs(blue - (x + 30) / 60).max() <= 1 / 8 + 0.02
     assert np.corrcoef(x, blue)[0, 1] > 0.95
+
+
+def test_volume_fraction_materials_put_each_material_on_its_slot(tmp_path):
+    code = SCRIPTS["05_full_spectrum_volume_fractions.py"].replace(
+        'volume_fraction_materials={"red": 1, "blue": 2}', 'volume_fraction_materials={"red": 2, "blue": 1}')
+    program, mid, _ = _slice(tmp_path, "05_full_spectrum_volume_fractions.py", "--colors", "8", "--strategy", "1",
+                             code=code)
+    assert "; materials = blue,red" in (tmp_path / "part.gcode").read_text()
+    x, blue = _blue_share(program, mid, 2, 0)  # blue on slot 1: channel A
+    assert np.abs(blue - (x + 30) / 60).max() <= 1 / 8 + 0.02
+
+
+def _header(tmp_path: Path, key: str) -> str:
+    return re.search(rf"^; {key} = (.*)$", (tmp_path / "part.gcode").read_text(), re.M).group(1)
+
+
+def test_prusa_colormix_colour_bar_is_printed_as_mixtures_of_prusas_cmykw_filaments(tmp_path):
+    from fgslice.design.color_mix import parse_filament_colors, unmix
+
+    cmykw = "#0082ad,#d10f4f,#efd00b,#3d3e3d,#e6eaef"  # the compiler's documented defaults
+    program, mid, _ = _slice(tmp_path, "06_prusa_colormix_color_gradient.py", "--colors", "56", "--strategy", "1",
+                             "--set", "channels=5")
+    assert _header(tmp_path, "filament_colors") == cmykw
+    printed = (program.e > 0) & (program.length > 0) & (program.layer == 5) & (np.abs(mid[:, :2]) <= [30, 5]).all(axis=1)
+    commanded = np.array([program.states[s].mix_fractions(5) for s in program.state[printed]])
+    x = mid[printed, 0]
+    target = unmix(np.column_stack([(x + 30) / 60, (30 - x) / 60, np.ones_like(x)]), tuple(parse_filament_colors(cmykw)))
+    # 56 colours of 5 materials are fractions in steps of 1/4: the nearest mixture within a step
+    assert np.abs(commanded - target).max() <= 0.25
+    assert np.corrcoef(x, commanded[:, 1])[0, 1] > 0.85  # magenta rises along the bar
+
+
+def test_full_spectrum_colour_bar_on_a_toolchanger_takes_the_nearest_filament(tmp_path):
+    program, mid, _ = _slice(tmp_path, "04_full_spectrum_color_gradient.py", "--profile", "toolchanger",
+                             "--colors", "5", "--set", "palette=ends", "--strategy", "1")
+    text = (tmp_path / "part.gcode").read_text()
+    assert _header(tmp_path, "filament_colors") == "#00ffff,#ff00ff,#ffff00,#000000,#ffffff"
+    # each tool's palette colour, from the header: '; color 4 = A 100% / B 0% / ... : T4'
+    holds = {int(tool): [float(v) for v in re.findall(r"([\d.]+)%", label)]
+             for label, tool in re.findall(r"^; color \d+ = (.*?) : T(\d+)$", text, re.M)}
+    printed = (program.e > 0) & (program.length > 0) & (program.layer == 5) & (np.abs(mid[:, :2]) <= [30, 5]).all(axis=1)
+    filament = np.array([np.argmax(holds[program.states[s].tool]) for s in program.state[printed]])
+    x = mid[printed, 0]
+    # cyan (slot 1) where the intended colour is nearer cyan, magenta (slot 2) where nearer magenta
+    assert (filament[x < -3] == 0).all() and (filament[x > 3] == 1).all()
+    assert (x < -3).sum() > 10 and (x > 3).sum() > 10
+
+
+def test_an_explicit_filament_colors_setting_wins_over_the_compilers_filaments(tmp_path):
+    _slice(tmp_path, "06_prusa_colormix_color_gradient.py", "--colors", "8", "--strategy", "1",
+           "--set", "filament_colors=#00ffff,#ff00ff")
+    assert _header(tmp_path, "filament_colors") == "#00ffff,#ff00ff"
+    assert _header(tmp_path, "materials") == "cyan,magenta"
+
+
+def test_the_filaments_given_to_the_compiler_are_the_loaded_colours(tmp_path):
+    code = SCRIPTS["06_prusa_colormix_color_gradient.py"].replace(
+        "    enable_color_mix=True,\n",
+        '    enable_color_mix=True,\n    color_mix_filaments=[{"slot": 2, "color_hex": "#FF00FF"}, '
+        '{"slot": 1, "color_hex": "#00FFFF"}],\n')
+    program, mid, _ = _slice(tmp_path, "06_prusa_colormix_color_gradient.py", "--colors", "8", "--strategy", "1",
+                             code=code)
+    assert _header(tmp_path, "filament_colors") == "#00ffff,#ff00ff"  # in slot order
+    x, magenta = _blue_share(program, mid, 2, 1)
+    # cyan + magenta light in linear RGB is the mixture itself: the magenta share is the red channel
+    assert np.abs(magenta - (x + 30) / 60).max() <= 1 / 8 + 0.02
+
+
+def test_check_says_the_compilers_regions_are_not_used(tmp_path):
+    out = _cli("check", _script(tmp_path, "02_infill_density_bar.py"), "--set", "strategy=1")
+    assert ("note: PrusaSlicerProjectCompiler (line 18): its stepwise regions (num_regions=12) are not used: "
+            "fgslice grades every attribute continuously") in out
+    out = _cli("check", _script(tmp_path, "04_full_spectrum_color_gradient.py"), "--set", "channels=5",
+               "--set", "colors=21")
+    assert "(max_palette_size=10) are not used" in out
+    assert "note: filament colours #00ffff,#ff00ff,#ffff00,#000000,#ffffff from " \
+           "FullSpectrumSlicerProjectCompiler's default filaments" in out
+
+
+@pytest.mark.parametrize("change,message", [
+    (("num_regions=12", "num_region=12"), "PrusaSlicerProjectCompiler has no argument 'num_region'"),
+    (("num_regions=12", 'color_mix_filaments=[{"slot": 1, "color_hex": "#FF0000"}, {"slot": 3, "color_hex": "#0000FF"}]'),
+     "color_mix_filaments fills slots 1, 3"),
+    (("num_regions=12", 'volume_fraction_materials={"green": 1}'), "volume_fraction_materials names 'green'"),
+])
+def test_bad_compiler_arguments_fail_at_the_compilers_line(tmp_path, change, message):
+    code = SCRIPTS["02_infill_density_bar.py"].replace(*change)
+    result = CliRunner().invoke(main, ["check", str(_script(tmp_path, "bar.py", code))])
+    assert result.exit_code != 0 and message in result.output
+    assert "bar.py:18:" in result.output
+
+
+def test_a_progress_callback_hears_the_compile_finish(tmp_path):
+    from fgslice.compat.script import load_script
+
+    code = SCRIPTS["02_infill_density_bar.py"].replace(
+        "compiler.compile()", "heard = []\ncompiler.set_progress_callback(heard.append)\ncompiler.compile()\n"
+                              "assert heard == [1.0], heard")
+    design = load_script(_script(tmp_path, "bar.py", code))
+    assert design.bounds()[1] == pytest.approx((40, 10, 2))
