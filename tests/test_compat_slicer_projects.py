@@ -168,6 +168,9 @@ def test_an_explicit_filament_colors_setting_wins_over_the_compilers_filaments(t
            "--set", "filament_colors=#00ffff,#ff00ff")
     assert _header(tmp_path, "filament_colors") == "#00ffff,#ff00ff"
     assert _header(tmp_path, "materials") == "cyan,magenta"
+    out = _cli("check", tmp_path / "06_prusa_colormix_color_gradient.py", "--set", "filament_colors=#00ffff,#ff00ff")
+    assert ("note: filament colours #00ffff,#ff00ff from the profile or --set, not PrusaSlicerProjectCompiler's "
+            "default filaments") in out
 
 
 def test_the_filaments_given_to_the_compiler_are_the_loaded_colours(tmp_path):

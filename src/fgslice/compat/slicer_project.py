@@ -219,8 +219,11 @@ def notes(project: SlicerProject | None, design, settings) -> list[str]:
         source = FILAMENTS[project.compiler] if project.filament_colors else f"{project.compiler}'s default filaments"
         if settings.filament_colors and settings.filament_colors != ",".join(colors):
             out.append(f"filament colours {settings.filament_colors} from the profile or --set, not {source}")
-        else:
+        elif project.filament_colors:
             out.append(f"filament colours {','.join(colors)} from {source}")
+        else:
+            out.append(f"filament colours {','.join(colors)} from {source} (set filament_colors to the ones "
+                       "loaded if they differ)")
     return out
 
 
