@@ -12,8 +12,9 @@ table) are accepted and not used: the settings of the slice decide the print, ex
 what a slicer-project compiler says of the loaded filaments (their colours, the slot of
 each material: :mod:`fgslice.compat.slicer_project`), which fgslice uses where the
 settings say nothing else. ``set_progress_callback(f)`` is accepted; ``compile()`` calls
-``f(1.0)`` once the design is recorded. A compiler whose output is not a print (``InpWriter``: Abaqus meshes; ``CrossSectionSlicer``:
-section images) and every other name raise a DesignError naming it.
+``f(1.0)`` once the design is recorded. A compiler whose output is not a print
+(``InpWriter``: Abaqus meshes; ``CrossSectionSlicer``: section images) and every other
+name raise a DesignError naming it.
 """
 
 from __future__ import annotations
