@@ -138,6 +138,7 @@ def _slice(design: Path, output: Path, settings, materials, stats_path, report_p
     """:func:`slice_command` once the settings are loaded: slice to the file ``output``
     and print the summary (on stderr when the G-code goes to stdout)."""
     from fgslice.compat import open_design as load_design
+    from fgslice.compat.slicer_project import machine_settings, project_of
     from fgslice.design.scaled import scaled
     from fgslice.output import check_writable
     from fgslice.pipeline import slice_to_gcode
@@ -147,7 +148,9 @@ def _slice(design: Path, output: Path, settings, materials, stats_path, report_p
     for extra in (stats_path, report_path):
         if extra:
             check_writable(extra, inputs=(design, output))
-    loaded = scaled(load_design(design, materials), settings.scale)
+    loaded = load_design(design, materials)
+    settings = machine_settings(project_of(loaded), loaded, settings)
+    loaded = scaled(loaded, settings.scale)
     comments = {"design": str(design), "command": "fgslice " + " ".join(sys.argv[1:])}
     sizes = parse_sizes(settings.thumbnails)
     with _progress("slicing") as progress:
@@ -241,10 +244,15 @@ def check_command(design, materials, profile, sets):
     from fgslice.compat import open_design as load_design
     from fgslice.design.scaled import scaled
     from fgslice.design import check_design, format_report
+    from fgslice.compat.slicer_project import machine_settings, notes, project_of
 
     settings = _settings(profile, sets)
-    loaded = scaled(load_design(design, materials), settings.scale)
+    loaded = load_design(design, materials)
+    project = project_of(loaded)
+    settings = machine_settings(project, loaded, settings)
+    loaded = scaled(loaded, settings.scale)
     report = check_design(loaded, settings=settings)
+    report.notes.extend(notes(project, loaded, settings))
     click.echo(format_report(report))
     if report.usable:
         from fgslice.executor import default_jobs

@@ -23,11 +23,14 @@ _PACKAGE_DIR = str(Path(__file__).resolve().parent)
 
 @dataclass
 class Run:
-    """One run of a design script: its path and the roots passed to Render / Export."""
+    """One run of a design script: its path and the roots passed to Render / Export;
+    ``projects``: by ``id`` of a compiled root, the last slicer project compiling it
+    (:mod:`fgslice.compat.slicer_project`; None for other compilers)."""
 
     path: Path
     rendered: list = field(default_factory=list)
     exported: list = field(default_factory=list)
+    projects: dict = field(default_factory=dict)
 
 
 _current: ContextVar[Run | None] = ContextVar("fgslice_pyvcad_run", default=None)

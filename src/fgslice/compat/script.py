@@ -8,7 +8,9 @@ importable as :mod:`fgslice.compat.pyvcad`, :mod:`fgslice.compat.pyvcad_renderin
 ``numba`` as :mod:`fgslice.compat.numba_standin`, ``pyvcad_rendering.render`` and its other
 modules as :mod:`fgslice.compat.pyvcad_rendering`'s (``sys.modules`` entries and the script's folder
 on ``sys.path``, both restored afterwards). The design is the root passed to the last
-``Export`` (or compiled by a ``pyvcad_compilers`` compiler), else to the last ``Render``, else the top-level variable ``root``. Any error —
+``Export`` (or compiled by a ``pyvcad_compilers`` compiler), else to the last ``Render``, else the top-level variable ``root``.
+A slicer-project compiler's filaments and material slots go with the design
+(:mod:`fgslice.compat.slicer_project`). Any error —
 the script's own exception, an unsupported pyvcad name or argument, an invalid value — is
 a :class:`~fgslice.errors.FgsliceError` at the script's file and line.
 
@@ -23,7 +25,7 @@ import contextlib
 import sys
 from pathlib import Path
 
-from fgslice.compat import context, numba_standin, pyvcad, pyvcad_rendering
+from fgslice.compat import context, numba_standin, pyvcad, pyvcad_rendering, slicer_project
 from fgslice.design import api, nodes
 from fgslice.design.language import read_design_text
 from fgslice.design.materials import MaterialLibrary
@@ -49,9 +51,13 @@ def load_script(path: str | Path, materials: MaterialLibrary | str | Path | None
             raise _script_error(error, path, f"the script raised {type(error).__name__}: {error}") from None
     root, where = _root(run, namespace, path)
     try:
-        return api.design(pyvcad.to_node(root), materials)
+        design = api.design(pyvcad.to_node(root), materials)
+        project = run.projects.get(id(root))
+        if project is not None:
+            design = slicer_project.applied(design, project)
     except FgsliceError as error:
         raise context.locate(error, where) from None
+    return design
 
 
 def _compile(path: Path, source: str):
