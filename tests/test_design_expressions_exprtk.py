@@ -207,6 +207,12 @@ def test_expressions_with_locals_combine_and_pickle():
         ("if (x > 0) if (y > 0) 1 else 2 else 3", lambda: np.where(X > 0, np.where(Y > 0, 1.0, 2.0), 3.0)),
         ("1 + if (x > 0) 2 else 3", lambda: np.where(X > 0, 3.0, 4.0)),
         ("if (x > 0) x + 1 else x - 1 ^ 2", lambda: np.where(X > 0, X + 1, X - 1)),  # a branch extends
+        ("if (x > 0) { 2 } else { 3 } + 1", lambda: np.where(X > 0, 3.0, 4.0)),  # a block branch ends at '}'
+        ("if (x > 0) 2; else { 3 } * 10", lambda: np.where(X > 0, 20.0, 30.0)),
+        (
+            "if (x > 0) { 2 } else if (x < -1) { 3 } else { 4 } * 10",
+            lambda: np.where(X > 0, 20.0, np.where(X < -1, 30.0, 40.0)),
+        ),
         ("if(x > 0, x, y)", lambda: np.where(X > 0, X, Y)),
         ("x > 0 ? x : y", lambda: np.where(X > 0, X, Y)),
         ("if (x > 0) { var u := 3; u * x } else 0", lambda: np.where(X > 0, 3 * X, 0.0)),
@@ -505,3 +511,31 @@ def test_an_openvcad3_script_with_a_loop_fails_at_its_line(tmp_path):
     with pytest.raises(DesignSyntaxError) as info:
         load_script(script)
     assert info.value.line == 3 and "loops are not supported: 'while'" in info.value.message
+
+
+# -- fuzzing the statement syntax ----------------------------------------------------------------------
+
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+STATEMENT_TOKENS = [
+    "var", "t", "u", "x", "y", "d", "pi", "true", "false", "1", "2.5", ":=", "+=", "-=", "*=", "/=", "%=", ";",
+    "if", "if (", "else", "; else", "switch", "case", "default", ":", "?", "{", "}", "(", ")", ",", "+", "-", "*",
+    "^", "=", "==", "<>", "!=", "<", "and", "or", "xor", "nand", "nor", "xnor", "&", "|", "&&", "not", "mand(",
+    "mor(", "roundn(", "sum(", "sin(", "while", "for", "repeat", "until", "return", "[", "]", "'", "~", "\n",
+]
+PX = np.array([-2.0, -0.5, 0.0, 0.5, 3.0])
+
+
+@settings(max_examples=300, deadline=2000, suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(st.sampled_from(STATEMENT_TOKENS), max_size=30))
+def test_random_statement_token_sequences_compile_or_fail_located(tokens):
+    text = " ".join(tokens)
+    try:
+        expr = compile_expression(text, file="fuzz.py", line=2, column=5)
+    except (DesignSyntaxError, DesignError) as err:
+        assert err.line is not None and err.line >= 2 and err.column is not None and err.column >= 1
+        assert err.message and err.hint and err.format()
+        return
+    out = expr(PX, PX, PX, d=PX)
+    assert out.shape == PX.shape and out.dtype == np.float64

@@ -76,8 +76,11 @@ MAX_DEPTH = 200
 # either the call if(c, a, b) or the statement if (c) a [;] else b. An if statement, a
 # switch and a block { ...; ... } are operands of the unary level: "2 * if (c) a else b"
 # works, but nothing multiplies them implicitly or raises them to a power, so a missing ';'
-# after "}" is an error, not a product. A branch extends as far as an expression can (the
-# grammar's only LALR conflicts, resolved by shifting; an else belongs to the nearest if).
+# after "}" is an error, not a product. A branch that is a block ends with it, as in ExprTk
+# ("if (c) {a} else {b} + 1" adds 1 to either: the reduce/reduce conflict is settled by
+# ifstmt's priority); any other branch extends as far as an expression can (shift/reduce
+# conflicts, resolved by shifting; an else belongs to the nearest if). These are the
+# grammar's only conflicts: expressions without an if statement parse as before.
 # "; else" is one token (_ELSE), so that "if (c) a; else b" is not read as two statements.
 # Loop keywords are lexed (LOOP) only to be refused by name.
 _GRAMMAR = r"""
@@ -105,7 +108,7 @@ assign: NAME (ASSIGN | UPDATE) expr
 ?jatom: NAME | call | "(" expr ")" | ifcall
 call: CALLNAME (expr ("," expr)*)? ")"
 ifcall: IF expr ("," expr)+ ")"
-ifstmt: IF expr ")" expr (_ELSE expr)?
+ifstmt.2: IF expr ")" (block | expr) (_ELSE (block | ifstmt | expr))?
 switch: "switch" "{" (case | default)* "}"
 case: "case" expr ":" expr ";"
 default: "default" ":" expr ";"
