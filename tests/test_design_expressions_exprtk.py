@@ -166,6 +166,18 @@ def test_statements_and_locals(text, reference):
     np.testing.assert_allclose(ev(text), reference(), rtol=1e-13, atol=1e-14)
 
 
+def test_comments_as_in_exprtk():
+    text = "var t := x; # the base\n// doubled:\nt * 2 /* twice */ + y"
+    np.testing.assert_allclose(ev(text), 2 * X + Y)
+    np.testing.assert_allclose(ev("x // 2"), X)
+    np.testing.assert_allclose(ev("x / 2"), X / 2)
+    with pytest.raises(DesignSyntaxError) as info:
+        located("x + 1 /* never closed")
+    assert (info.value.line, info.value.column) == (3, 16) and "'*/'" in info.value.hint
+    with pytest.raises(DesignSyntaxError, match="empty expression"):
+        compile_expression("# nothing but a comment")
+
+
 def test_locals_are_graph_nodes_computed_once(monkeypatch):
     calls = []
 

@@ -82,7 +82,8 @@ MAX_DEPTH = 200
 # conflicts, resolved by shifting; an else belongs to the nearest if). These are the
 # grammar's only conflicts: expressions without an if statement parse as before.
 # "; else" is one token (_ELSE), so that "if (c) a; else b" is not read as two statements.
-# Loop keywords are lexed (LOOP) only to be refused by name.
+# Loop keywords are lexed (LOOP) only to be refused by name. Comments are ExprTk's:
+# "// ..." and "# ..." to the end of the line, "/* ... */".
 _GRAMMAR = r"""
 start: _statements
 _statements: _statement (";" _statement)* ";"?
@@ -126,7 +127,9 @@ _ELSE.3: /(;[ \t\r\n]*)?else(?![a-z0-9_])/
 LOOP.3: /(while|for|repeat|until|break|continue|return)(?![a-z0-9_])/
 CALLNAME.2: /(?!(and|or|not|nand|nor|xor|xnor|case)[ \t\r\n]*\()[a-z][a-z0-9_]*[ \t\r\n]*\(/
 NAME: /[a-z][a-z0-9_]*/
+COMMENT: /\/\/[^\n]*|#[^\n]*|\/\*[\s\S]*?\*\//
 %ignore /[ \t\r\n]+/
+%ignore COMMENT
 """
 
 
@@ -401,7 +404,6 @@ _CHAR_HINTS = {
     "!": "write 'not', or '!=' to compare",
     "~": "write the statements one after the other, separated by ';'",
     "$": "ExprTk's special functions ($f00 ...) are not supported; write the formula",
-    "#": "comments are not supported in expressions",
     "π": "write 'pi'",
     "×": "write '*'",
     "·": "write '*'",
@@ -502,6 +504,8 @@ def _syntax_error(src: _Source, exc: lark.exceptions.UnexpectedInput) -> Fgslice
     token = getattr(exc, "token", None)
     expected = set(getattr(exc, "expected", ()) or ())
     if token is None or token.type == "$END":
+        if next(iter(_PARSER.lex(text.translate(_LOWER))), None) is None:
+            return src.error(DesignSyntaxError, "empty expression (only comments)", 0, "write a value, e.g. 'z/70'")
         opened = _unmatched_paren(text)
         if opened is not None and "RPAR" in expected:
             line, column = src.position(opened)
@@ -524,6 +528,9 @@ def _syntax_error(src: _Source, exc: lark.exceptions.UnexpectedInput) -> Fgslice
         what, hint = f"'{value}'", "comparisons do not chain: write 'a < b and b < c'"
     elif token.type == "MULOP" and value == "*" and text[:offset].rstrip().endswith("*"):
         what, hint = "'*'", "write '^' for powers"
+    elif token.type == "MULOP" and value == "*" and text[:offset].endswith("/"):
+        what, hint = "'/*'", "this comment is never closed: end it with '*/'"
+        offset -= 1
     elif token.type in ("AMPERSAND", "VBAR") and text[:offset].rstrip().endswith(value):
         word = "and" if value == "&" else "or"
         what, hint = f"'{value}'", f"write '{word}' (or a single '{value}')"
