@@ -169,6 +169,7 @@ def test_statements_and_locals(text, reference):
 def test_comments_as_in_exprtk():
     text = "var t := x; # the base\n// doubled:\nt * 2 /* twice */ + y"
     np.testing.assert_allclose(ev(text), 2 * X + Y)
+    np.testing.assert_allclose(ev("if (x > 0) x; // positive\n /* else */ else -x; # negative"), np.abs(X))
     np.testing.assert_allclose(ev("x // 2"), X)
     np.testing.assert_allclose(ev("x / 2"), X / 2)
     with pytest.raises(DesignSyntaxError) as info:

@@ -81,7 +81,8 @@ MAX_DEPTH = 200
 # ifstmt's priority); any other branch extends as far as an expression can (shift/reduce
 # conflicts, resolved by shifting; an else belongs to the nearest if). These are the
 # grammar's only conflicts: expressions without an if statement parse as before.
-# "; else" is one token (_ELSE), so that "if (c) a; else b" is not read as two statements.
+# "; else" is one token (_ELSE, comments allowed in between), so that "if (c) a; else b"
+# is not read as two statements.
 # Loop keywords are lexed (LOOP) only to be refused by name. Comments are ExprTk's:
 # "// ..." and "# ..." to the end of the line, "/* ... */".
 _GRAMMAR = r"""
@@ -123,7 +124,7 @@ ADDOP: "+" | "-"
 MULOP: "*" | "/" | "%"
 NUMBER: /([0-9]+(\.[0-9]*)?|\.[0-9]+)(e[+-]?[0-9]+)?/
 IF.3: /if[ \t\r\n]*\(/
-_ELSE.3: /(;[ \t\r\n]*)?else(?![a-z0-9_])/
+_ELSE.3: /(;([ \t\r\n]|\/\/[^\n]*|#[^\n]*|\/\*[\s\S]*?\*\/)*)?else(?![a-z0-9_])/
 LOOP.3: /(while|for|repeat|until|break|continue|return)(?![a-z0-9_])/
 CALLNAME.2: /(?!(and|or|not|nand|nor|xor|xnor|case)[ \t\r\n]*\()[a-z][a-z0-9_]*[ \t\r\n]*\(/
 NAME: /[a-z][a-z0-9_]*/
@@ -535,7 +536,7 @@ def _syntax_error(src: _Source, exc: lark.exceptions.UnexpectedInput) -> Fgslice
         word = "and" if value == "&" else "or"
         what, hint = f"'{value}'", f"write '{word}' (or a single '{value}')"
     elif token.type in ("ASSIGN", "UPDATE"):
-        what, hint = f"'{value}'", "only a local variable can be assigned, as a statement of its own: t := ..."
+        what, hint = f"'{value}'", "an assignment starts a statement or stands in parentheses: (t := ...)"
     elif token.type == "CALLNAME":
         what, hint = f"call of '{value[:-1].rstrip()}'", _expected(expected)
     elif token.type == "NAME":
