@@ -61,7 +61,7 @@ GUIDE = [
     ("x * y", lambda: X * Y),
     ("x / y", lambda: X / Y),
     ("x % y", lambda: np.fmod(X, Y)),
-    ("abs(x) ^ y", lambda: np.abs(X) ** Y),
+    ("x ^ y", lambda: X**Y),  # NaN for a negative x and a fractional y, in both
     # assignment to a local, and each compound assignment
     ("var t := 0; t := x", lambda: X),
     ("var t := x; t += y", lambda: X + Y),
@@ -71,6 +71,7 @@ GUIDE = [
     ("var t := x; t %= y", lambda: np.fmod(X, Y)),
     # equalities and inequalities
     ("x == y", lambda: truth(X == Y)),
+    ("x = y", lambda: truth(X == Y)),
     ("round(x) = round(y)", lambda: truth(np.round(X) == np.round(Y))),
     ("x <> y", lambda: truth(X != Y)),
     ("x != y", lambda: truth(X != Y)),
@@ -123,7 +124,9 @@ GUIDE = [
 
 @pytest.mark.parametrize("text, reference", GUIDE, ids=[t for t, _ in GUIDE])
 def test_the_guides_examples_match_numpy(text, reference):
-    np.testing.assert_allclose(ev(text), reference(), rtol=1e-13, atol=1e-14)
+    with np.errstate(invalid="ignore"):
+        expected = reference()
+    np.testing.assert_allclose(ev(text), expected, rtol=1e-13, atol=1e-14)
 
 
 def test_the_signed_distance_of_the_guide():
