@@ -21,6 +21,12 @@ CASES = [
     ("(rho-15)/35", lambda x, y, z: (np.hypot(x, y) - 15) / 35),
     ("abs(phi)/pi", lambda x, y, z: np.abs(np.arctan2(y, x)) / np.pi),
     ("z/70", lambda x, y, z: np.broadcast_to(z / 70, x.shape).copy()),
+    # OpenVCAD 3 (ExprTk) forms: a local, and a switch
+    ("var t := x/3 + 236; clamp(220, t, 256)", lambda x, y, z: np.clip(x / 3 + 236, 220, 256)),
+    (
+        "switch { case x < -20: 0.2; case x > 20: 0.8; default: 0.5 + x / 100; }",
+        lambda x, y, z: np.select([x < -20, x > 20], [0.2, 0.8], 0.5 + x / 100),
+    ),
 ]
 
 

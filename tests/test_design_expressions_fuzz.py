@@ -162,7 +162,7 @@ PAYLOADS = [
     "[x for x in y]",
     "{1: 2}",
     "x if y else z",
-    "x; y",
+    "x;; y",
     "(x, y)",
     "f'{x}'",
     "x @ y",

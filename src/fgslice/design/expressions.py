@@ -6,7 +6,16 @@ subexpressions are one node; constants are folded), which is scheduled into a fl
 of numpy steps over a register file that reuse dead temporaries in place. Several
 expressions combined with :func:`combine_expressions` share one graph, so what they have
 in common is computed once. Nothing of the text is ever passed to ``eval``/``exec``:
-only the names in :data:`FUNCTIONS`, :data:`VARIABLES` and :data:`CONSTANTS` exist.
+only the names in :data:`FUNCTIONS`, :data:`VARIABLES`, :data:`CONSTANTS` and
+:data:`LITERALS` exist, and locals the text declares.
+
+The language is the part of ExprTk (which OpenVCAD compiles its expression strings with)
+that has a meaning for a field: statements separated by ``;`` whose value is the last
+one's, local variables (``var t := x/3; t^2``) with assignment and compound assignment,
+``if (c) a; else b;`` statements, ``switch``, the extended logic operators and ExprTk's
+functions with its definitions. Statements run at compile time on graph nodes, so a
+local costs nothing at evaluation and a conditional assignment is a selection. Loops,
+strings and vectors are refused by name. Coordinates cannot be assigned.
 
 Conventions: coordinates in mm, angles in radians; evaluation is float64 and the result
 has the broadcast shape of ``x, y, z`` (and ``d`` when given). Comparisons and logic
@@ -32,12 +41,14 @@ from types import MappingProxyType
 import lark
 import numpy as np
 
+from fgslice.design import expression_kernels as kernels
 from fgslice.design.lark_cache import cached_lark
 from fgslice.errors import DesignError, DesignSyntaxError, FgsliceError, FieldError, did_you_mean
 
 __all__ = [
     "CONSTANTS",
     "FUNCTIONS",
+    "LITERALS",
     "MAX_DEPTH",
     "MAX_LENGTH",
     "VARIABLES",
@@ -54,40 +65,99 @@ MAX_LENGTH = 100_000
 MAX_DEPTH = 200
 """Deepest nesting accepted, of parentheses and of operations."""
 
-# Operator precedence, loosest first: ?: / or / and / not / comparisons (non-chaining) /
+# A text is a list of statements separated by ';' (a trailing ';' is allowed); its value is
+# the last one's. A statement declares a local (var t := ...) or is an expression. Operator
+# precedence, loosest first: assignment t := / += -= *= /= %= (right-associative, to
+# locals only) / ?: / or nor xor xnor | / and nand & / not / comparisons (non-chaining) /
 # + - / * / % / unary sign / implicit multiplication / ^ (right-associative; its exponent
 # may carry a sign). The right operand of an implicit multiplication never starts with a
 # number or a sign, so "x 2" and "1.2.3" are errors and "a -b" is a subtraction. A name
-# directly followed by "(" is a call (CALLNAME), whitespace allowed in between.
+# directly followed by "(" is a call (CALLNAME), whitespace allowed in between; "if (" opens
+# either the call if(c, a, b) or the statement if (c) a [;] else b. An if statement, a
+# switch and a block { ...; ... } are operands of the unary level: "2 * if (c) a else b"
+# works, but nothing multiplies them implicitly or raises them to a power, so a missing ';'
+# after "}" is an error, not a product. A branch that is a block ends with it, as in ExprTk
+# ("if (c) {a} else {b} + 1" adds 1 to either: the reduce/reduce conflict is settled by
+# ifstmt's priority); any other branch extends as far as an expression can (shift/reduce
+# conflicts, resolved by shifting; an else belongs to the nearest if). These are the
+# grammar's only conflicts: expressions without an if statement parse as before.
+# "; else" is one token (_ELSE, comments allowed in between), so that "if (c) a; else b"
+# is not read as two statements.
+# Loop keywords are lexed (LOOP) only to be refused by name. Comments are ExprTk's:
+# "// ..." and "# ..." to the end of the line, "/* ... */".
 _GRAMMAR = r"""
-?start: ternary
+start: _statements
+_statements: _statement (";" _statement)* ";"?
+_statement: declare | expr
+declare: "var" NAME (ASSIGN expr)?
+?expr: assign | ternary
+assign: NAME (ASSIGN | UPDATE) expr
 ?ternary: or_test "?" ternary ":" ternary | or_test
-?or_test: and_test ("or" and_test)+ -> or_ | and_test
-?and_test: not_test ("and" not_test)+ -> and_ | not_test
+?or_test: and_test (orop and_test)+ -> logic | and_test
+?and_test: not_test (andop not_test)+ -> logic | not_test
+!orop: "or" | "nor" | "xor" | "xnor" | "|"
+!andop: "and" | "nand" | "&"
 ?not_test: NOT+ comparison -> not_ | comparison
 ?comparison: sum COMPARE sum | sum
 ?sum: product (ADDOP product)+ | product
 ?product: unary (MULOP unary)+ | unary
 ?unary: ADDOP+ implicit -> signed | implicit
-?implicit: power jpower+ | power
+?implicit: power jpower+ | power | ifstmt | switch | block
 ?power: atom "^" exponent | atom
 ?jpower: jatom "^" exponent -> power | jatom
 ?exponent: ADDOP+ power -> signed | power
 ?atom: NUMBER | jatom
-?jatom: NAME | call | "(" ternary ")"
-call: CALLNAME (ternary ("," ternary)*)? ")"
+?jatom: NAME | call | "(" expr ")" | ifcall
+call: CALLNAME (expr ("," expr)*)? ")"
+ifcall: IF expr ("," expr)+ ")"
+ifstmt.2: IF expr ")" (block | expr) (_ELSE (block | ifstmt | expr))?
+switch: "switch" "{" (case | default)* "}"
+case: "case" expr ":" expr ";"
+default: "default" ":" expr ";"
+block: "{" _statements "}"
 
 NOT: "not"
-COMPARE: "<=" | ">=" | "==" | "!=" | "<" | ">"
+COMPARE: "<=" | ">=" | "==" | "!=" | "<>" | "<" | ">" | "="
+ASSIGN: ":="
+UPDATE: "+=" | "-=" | "*=" | "/=" | "%="
 ADDOP: "+" | "-"
 MULOP: "*" | "/" | "%"
 NUMBER: /([0-9]+(\.[0-9]*)?|\.[0-9]+)(e[+-]?[0-9]+)?/
-CALLNAME.2: /(?!(and|or|not)[ \t\r\n]*\()[a-z][a-z0-9_]*[ \t\r\n]*\(/
+IF.3: /if[ \t\r\n]*\(/
+_ELSE.3: /(;([ \t\r\n]|\/\/[^\n]*|#[^\n]*|\/\*[\s\S]*?\*\/)*)?else(?![a-z0-9_])/
+LOOP.3: /(while|for|repeat|until|break|continue|return)(?![a-z0-9_])/
+CALLNAME.2: /(?!(and|or|not|nand|nor|xor|xnor|case)[ \t\r\n]*\()[a-z][a-z0-9_]*[ \t\r\n]*\(/
 NAME: /[a-z][a-z0-9_]*/
+COMMENT: /\/\/[^\n]*|#[^\n]*|\/\*[\s\S]*?\*\//
 %ignore /[ \t\r\n]+/
+%ignore COMMENT
 """
 
-_PARSER = cached_lark(_GRAMMAR, lexer="basic", propagate_positions=True)
+
+class _LoopKeyword(Exception):
+    """Raised while lexing at a loop keyword, which the language refuses by name."""
+
+    def __init__(self, token: lark.Token) -> None:
+        super().__init__(token.value)
+        self.token = token
+
+
+class _RefuseLoops(lark.lark.PostLex):
+    """Passes the tokens on and stops at the first loop keyword (``while``, ``for`` ...)."""
+
+    always_accept = ("LOOP",)
+
+    def process(self, stream):
+        for token in stream:
+            if token.type == "LOOP":
+                raise _LoopKeyword(token)
+            yield token
+
+    def __repr__(self) -> str:  # part of the parser cache's key: stable across runs
+        return "_RefuseLoops()"
+
+
+_PARSER = cached_lark(_GRAMMAR, lexer="basic", propagate_positions=True, postlex=_RefuseLoops())
 
 # The language is case-insensitive and has no strings: the text is parsed with ASCII
 # letters lowered (length-preserving, so token offsets index the original text too).
@@ -185,6 +255,36 @@ _FUNCTION_TABLE: list[tuple[str, tuple[str, ...], bool, Callable | None, str]] =
     ("rad2deg", ("x",), False, np.rad2deg, "radians to degrees"),
     ("erf", ("x",), False, _erf, "error function"),
     ("if", ("c", "a", "b"), False, None, "a where c is nonzero, else b (same as c ? a : b)"),
+    ("log10", ("x",), False, np.log10, "base-10 logarithm"),
+    ("log2", ("x",), False, np.log2, "base-2 logarithm"),
+    ("logn", ("x", "n"), False, None, "base-n logarithm, log(x)/log(n)"),
+    ("log1p", ("x",), False, np.log1p, "log(1 + x), accurate for small x"),
+    ("expm1", ("x",), False, np.expm1, "e^x - 1, accurate for small x"),
+    ("root", ("x", "n"), False, kernels.root, "n-th root x^(1/n); for x < 0 real only for an odd integer n, else NaN"),
+    ("roundn", ("x", "n"), False, kernels.roundn, "x rounded to n decimals (n from 0 to 16), halves away from zero"),
+    ("sum", ("a",), True, np.add, "sum of the arguments"),
+    ("mul", ("a",), True, np.multiply, "product of the arguments"),
+    ("mod", ("x", "y"), False, np.fmod, "remainder with the sign of x, same as x % y"),
+    ("equal", ("x", "y"), False, None, "1 where |x - y| <= 1e-10 * max(1, |x|, |y|), else 0"),
+    ("not_equal", ("x", "y"), False, None, "1 where |x - y| > 1e-10 * max(1, |x|, |y|), else 0"),
+    ("inrange", ("lo", "x", "hi"), False, None, "1 where lo <= x <= hi, else 0"),
+    ("iclamp", ("lo", "x", "hi"), False, None, "x outside (lo, hi); inside, the nearer of lo and hi (lo at the middle)"),
+    ("erfc", ("x",), False, kernels.erfc, "complementary error function 1 - erf(x)"),
+    ("ncdf", ("x",), False, None, "standard normal cumulative distribution, 0.5 erfc(-x/sqrt(2))"),
+    ("sinh", ("x",), False, np.sinh, "hyperbolic sine"),
+    ("cosh", ("x",), False, np.cosh, "hyperbolic cosine"),
+    ("tanh", ("x",), False, np.tanh, "hyperbolic tangent"),
+    ("asinh", ("x",), False, np.arcsinh, "inverse hyperbolic sine"),
+    ("acosh", ("x",), False, np.arccosh, "inverse hyperbolic cosine (NaN for x < 1)"),
+    ("atanh", ("x",), False, np.arctanh, "inverse hyperbolic tangent (NaN outside [-1, 1])"),
+    ("sec", ("x",), False, None, "secant 1/cos(x)"),
+    ("csc", ("x",), False, None, "cosecant 1/sin(x)"),
+    ("cot", ("x",), False, None, "cotangent 1/tan(x)"),
+    ("sinc", ("x",), False, kernels.sinc, "sin(x)/x, 1 where |x| < 2.2e-16"),
+    ("deg2grad", ("x",), False, None, "degrees to gradians, x * 10/9"),
+    ("grad2deg", ("x",), False, None, "gradians to degrees, x * 9/10"),
+    ("mand", ("a",), True, None, "1 where every argument is nonzero, else 0"),
+    ("mor", ("a",), True, None, "1 where any argument is nonzero, else 0"),
 ]
 
 FUNCTIONS: Mapping[str, Function] = MappingProxyType(
@@ -213,6 +313,16 @@ VARIABLES: Mapping[str, str] = MappingProxyType(
 CONSTANTS: Mapping[str, float] = MappingProxyType({"pi": math.pi, "e": math.e})
 """The named constants."""
 
+LITERALS: Mapping[str, float] = MappingProxyType({"true": 1.0, "false": 0.0})
+"""The boolean literals, as the numbers logic returns."""
+
+_UNSUPPORTED_FUNCTIONS = {
+    "swap": "expressions have no references to swap; use a third local: var t := a; a := b; b := t",
+    "shl": "write x * 2^n",
+    "shr": "write x / 2^n",
+}
+"""Hints for ExprTk functions fgslice does not have."""
+
 _CANONICAL = {"phic": "phi", "theta": "phi"}
 
 _BINARY = {
@@ -226,7 +336,9 @@ _BINARY = {
     ">": np.greater,
     ">=": np.greater_equal,
     "==": np.equal,
+    "=": np.equal,
     "!=": np.not_equal,
+    "<>": np.not_equal,
 }
 
 
@@ -275,21 +387,24 @@ class _Source:
 
 # -- syntax errors ---------------------------------------------------------------------
 
-_ALLOWED = "numbers, names, f(...), ( ), + - * / % ^, < <= > >= == !=, and, or, not, ? :"
+_ALLOWED = (
+    "numbers, names, f(...), ( ), { }, + - * / % ^, < <= > >= == = != <>, and, or, not, ? :, "
+    "var t := ..., ';' between statements, if, switch"
+)
+
+_STRINGS = "strings are not supported: fgslice's expressions compute numbers"
+_VECTORS = "vectors and subscripts are not supported: use one local per value (var a := ...; var b := ...)"
 
 _CHAR_HINTS = {
-    '"': "strings are not part of the expression language",
-    "'": "strings are not part of the expression language",
-    "[": "subscripts are not part of the expression language; group with ( )",
-    "]": "subscripts are not part of the expression language; group with ( )",
-    "{": "group with ( )",
-    "}": "group with ( )",
+    '"': _STRINGS,
+    "'": _STRINGS,
+    "[": _VECTORS,
+    "]": _VECTORS,
     ".": "attribute access is not part of the expression language",
     "_": "names start with a letter; names beginning with '_' do not exist",
-    "=": "compare with '=='; expressions cannot assign",
-    "&": "write 'and'",
-    "|": "write 'or'",
     "!": "write 'not', or '!=' to compare",
+    "~": "write the statements one after the other, separated by ';'",
+    "$": "ExprTk's special functions ($f00 ...) are not supported; write the formula",
     "π": "write 'pi'",
     "×": "write '*'",
     "·": "write '*'",
@@ -299,22 +414,42 @@ _CHAR_HINTS = {
     "³": "write '^3'",
 }
 
+_CHAR_NAMES = {'"': "strings", "'": "strings", "[": "vectors", "]": "vectors"}
+"""Characters that open something the language refuses by name."""
+
 _TOKEN_NAMES = {
     "LPAR": "'('",
     "RPAR": "')'",
+    "LBRACE": "'{'",
+    "RBRACE": "'}'",
     "COMMA": "','",
+    "SEMICOLON": "';'",
     "NUMBER": "a number",
     "NAME": "a name",
     "CALLNAME": "a function call",
+    "IF": "'if ('",
     "ADDOP": "'+'/'-'",
     "MULOP": "'*'/'/'/'%'",
     "COMPARE": "a comparison",
+    "ASSIGN": "':='",
+    "UPDATE": "'+='/'-='/'*='/'/='/'%='",
     "CIRCUMFLEX": "'^'",
     "QMARK": "'?'",
     "COLON": "':'",
     "AND": "'and'",
+    "NAND": "'nand'",
+    "AMPERSAND": "'&'",
     "OR": "'or'",
+    "NOR": "'nor'",
+    "XOR": "'xor'",
+    "XNOR": "'xnor'",
+    "VBAR": "'|'",
     "NOT": "'not'",
+    "VAR": "'var'",
+    "SWITCH": "'switch'",
+    "CASE": "'case'",
+    "DEFAULT": "'default'",
+    "_ELSE": "'else'",
     "$END": "the end of the expression",
 }
 
@@ -325,6 +460,8 @@ def _expected(names: set[str]) -> str:
     if not readable:
         return "the expression cannot continue here"
     if len(readable) > 6:
+        if "SEMICOLON" in names:
+            return "expected an operator, ';' between statements, ')' or the end of the expression"
         return "expected an operator, ')' or the end of the expression"
     return "expected " + (readable[0] if len(readable) == 1 else ", ".join(readable[:-1]) + " or " + readable[-1])
 
@@ -340,16 +477,36 @@ def _unmatched_paren(text: str) -> int | None:
     return opened[0] if opened else None
 
 
+def _loop_error(src: _Source, token: lark.Token) -> FgsliceError:
+    """The refusal of a loop keyword, by name."""
+    word = src.text[token.start_pos : token.end_pos]
+    if token.value == "return":
+        return src.error(
+            DesignSyntaxError, "'return' is not supported", token.start_pos,
+            "the value of an expression is its last statement: write it last, without 'return'",
+        )
+    return src.error(
+        DesignSyntaxError,
+        f"loops are not supported: '{word}'",
+        token.start_pos,
+        "a field is evaluated at every point at once, without loops: write the result in closed form "
+        "(sum(...), mul(...), a formula) or choose with if/switch",
+    )
+
+
 def _syntax_error(src: _Source, exc: lark.exceptions.UnexpectedInput) -> FgsliceError:
     """Turn lark's complaint into a located DesignSyntaxError with a hint."""
     text = src.text
     if isinstance(exc, lark.exceptions.UnexpectedCharacters):
         ch = text[exc.pos_in_stream]
         hint = _CHAR_HINTS.get(ch, f"expressions are made of {_ALLOWED}")
-        return src.error(DesignSyntaxError, f"unexpected character {ch!r}", exc.pos_in_stream, hint)
+        refused = f" ({_CHAR_NAMES[ch]} are not supported)" if ch in _CHAR_NAMES else ""
+        return src.error(DesignSyntaxError, f"unexpected character {ch!r}{refused}", exc.pos_in_stream, hint)
     token = getattr(exc, "token", None)
     expected = set(getattr(exc, "expected", ()) or ())
     if token is None or token.type == "$END":
+        if next(iter(_PARSER.lex(text.translate(_LOWER))), None) is None:
+            return src.error(DesignSyntaxError, "empty expression (only comments)", 0, "write a value, e.g. 'z/70'")
         opened = _unmatched_paren(text)
         if opened is not None and "RPAR" in expected:
             line, column = src.position(opened)
@@ -372,6 +529,14 @@ def _syntax_error(src: _Source, exc: lark.exceptions.UnexpectedInput) -> Fgslice
         what, hint = f"'{value}'", "comparisons do not chain: write 'a < b and b < c'"
     elif token.type == "MULOP" and value == "*" and text[:offset].rstrip().endswith("*"):
         what, hint = "'*'", "write '^' for powers"
+    elif token.type == "MULOP" and value == "*" and text[:offset].endswith("/"):
+        what, hint = "'/*'", "this comment is never closed: end it with '*/'"
+        offset -= 1
+    elif token.type in ("AMPERSAND", "VBAR") and text[:offset].rstrip().endswith(value):
+        word = "and" if value == "&" else "or"
+        what, hint = f"'{value}'", f"write '{word}' (or a single '{value}')"
+    elif token.type in ("ASSIGN", "UPDATE"):
+        what, hint = f"'{value}'", "an assignment starts a statement or stands in parentheses: (t := ...)"
     elif token.type == "CALLNAME":
         what, hint = f"call of '{value[:-1].rstrip()}'", _expected(expected)
     elif token.type == "NAME":
@@ -406,16 +571,18 @@ def _polar(z, radius):
 
 
 _COMMUTATIVE = frozenset(
-    [np.add, np.multiply, np.maximum, np.minimum, np.hypot, np.equal, np.not_equal, np.logical_and, np.logical_or]
+    [np.add, np.multiply, np.maximum, np.minimum, np.hypot, np.equal, np.not_equal, np.logical_and, np.logical_or,
+     np.logical_xor]
 )
 """Kernels whose two arguments may be swapped (sorted so ``a*b`` and ``b*a`` are shared)."""
 
 _BOOLEAN = frozenset(
-    [np.less, np.less_equal, np.greater, np.greater_equal, np.equal, np.not_equal, np.logical_and, np.logical_or, _not, _truth]
+    [np.less, np.less_equal, np.greater, np.greater_equal, np.equal, np.not_equal, np.logical_and, np.logical_or,
+     np.logical_xor, _not, _truth]
 )
 """Kernels returning booleans: they are given a float64 output so values stay float64."""
 
-_NO_OUT = frozenset([_select, _polar])
+_NO_OUT = frozenset([_select, _polar, kernels.sinc, kernels.root, kernels.roundn])
 """Kernels that allocate their own result (no ``out=``)."""
 
 
@@ -574,13 +741,23 @@ class _Program:
 
 
 class _Compiler:
-    """Walks the parse tree (iteratively) into a hash-consed graph; folds constants."""
+    """Walks the parse tree into a hash-consed graph; folds constants.
+
+    Statements run in order at compile time: a local variable is the graph node of its
+    current value, so assignments cost nothing at evaluation. Where a statement runs only
+    at some points (a branch of a conditional or a switch, the right operand of ``&``,
+    ``|``, ``mand``, ``mor``), each local it assigns becomes, after it, a selection between
+    its values on both paths. The walk is recursive, one or two Python frames per level,
+    and refuses nesting deeper than :data:`MAX_DEPTH`.
+    """
 
     def __init__(self, src: _Source) -> None:
         self.src = src
         self.graph = _Graph()
         self.used: set[str] = set()
         self.d_offset: int | None = None
+        self.scopes: list[dict[str, int]] = []
+        self.declared: dict[str, int] = {}
 
     def emit(self, kernel: Callable, args: list[int]) -> int:
         """The node of ``kernel(*args)`` (a ufunc-like callable taking ``out=``)."""
@@ -593,6 +770,114 @@ class _Compiler:
             acc = self.emit(kernel, [acc, operand])
         return acc
 
+    def const(self, value: float) -> int:
+        return self.graph.const(value)
+
+    # local variables and the paths they are assigned on
+    def lookup(self, name: str) -> dict[str, int] | None:
+        """The innermost scope declaring ``name``, or None."""
+        for scope in reversed(self.scopes):
+            if name in scope:
+                return scope
+        return None
+
+    def snapshot(self) -> list[dict[str, int]]:
+        return [dict(scope) for scope in self.scopes]
+
+    def restore(self, state: list[dict[str, int]]) -> None:
+        for scope, saved in zip(self.scopes, state, strict=True):
+            scope.update(saved)
+
+    def join(self, condition: int, taken: list[dict[str, int]]) -> None:
+        """Each local becomes its value in ``taken`` where ``condition`` is nonzero and its
+        current value elsewhere."""
+        for scope, values in zip(self.scopes, taken, strict=True):
+            for name, value in values.items():
+                scope[name] = self.choose(condition, value, scope[name])
+
+    def choose(self, condition: int, a: int, b: int) -> int:
+        """``a`` where ``condition`` is nonzero (NaN included), else ``b``."""
+        if a == b:
+            return a
+        value = self.graph.const_value(condition)
+        if value is not None:
+            return a if value != 0.0 else b
+        return self.emit(_select, [condition, a, b])
+
+    def conditional(self, condition: int, then: lark.Tree | lark.Token, otherwise, depth: int) -> int:
+        """``then`` where ``condition`` is nonzero, else ``otherwise`` (NaN when None)."""
+        before = self.snapshot()
+        a = self.visit(then, depth)
+        taken = self.snapshot()
+        self.restore(before)
+        b = self.const(math.nan) if otherwise is None else self.visit(otherwise, depth)
+        self.join(condition, taken)
+        return self.choose(condition, a, b)
+
+    def guarded(self, guard: int, item: lark.Tree | lark.Token, depth: int) -> int:
+        """``item``'s value; its assignments take effect only where ``guard`` is nonzero."""
+        before = self.snapshot()
+        value = self.visit(item, depth)
+        taken = self.snapshot()
+        self.restore(before)
+        self.join(guard, taken)
+        return value
+
+    def sequence(self, statements: Sequence, depth: int) -> int:
+        """The value of the last statement, the others run first, in a scope of their own."""
+        self.scopes.append({})
+        value = self.const(math.nan)
+        for statement in statements:
+            value = self.visit(statement, depth)
+        self.scopes.pop()
+        return value
+
+    def declare(self, token: lark.Token, value: int) -> int:
+        name = token.value
+        original = self.src.text[token.start_pos : token.end_pos]
+        kind = (
+            "a coordinate" if name in VARIABLES
+            else "a constant" if name in CONSTANTS or name in LITERALS
+            else "a function" if name in FUNCTIONS
+            else None
+        )
+        if kind is not None:
+            raise self.src.error(
+                DesignError, f"cannot declare '{original}': it is {kind}", token.start_pos,
+                "choose another name for the local variable",
+            )
+        if self.lookup(name) is not None:
+            line, column = self.src.position(self.declared[name])
+            raise self.src.error(
+                DesignError, f"'{original}' is already declared (line {line}, column {column})", token.start_pos,
+                f"assign it with {original} := ..., or choose another name",
+            )
+        self.scopes[-1][name] = value
+        self.declared[name] = token.start_pos
+        return value
+
+    def assign(self, target: lark.Token, operator: lark.Token, item, depth: int) -> int:
+        name = target.value
+        original = self.src.text[target.start_pos : target.end_pos]
+        scope = self.lookup(name)
+        if scope is None:
+            if name in VARIABLES:
+                message = f"cannot assign to '{original}': the coordinates are read-only"
+                hint = f"declare a local variable instead: var t := {original}; then assign t"
+            elif name in CONSTANTS or name in LITERALS:
+                message, hint = f"cannot assign to the constant '{original}'", "declare a local variable: var t := ..."
+            elif name in FUNCTIONS:
+                message, hint = f"cannot assign to '{original}': it is a function", "declare a local variable: var t := ..."
+            else:
+                message = f"cannot assign to '{original}': it is not declared"
+                hint = f"declare it first: var {original} := ..."
+            raise self.src.error(DesignError, message, target.start_pos, hint)
+        value = self.visit(item, depth)
+        if operator.type == "UPDATE":
+            value = self.emit(_BINARY[operator.value[0]], [scope[name], value])
+        scope[name] = value
+        return value
+
     # leaves
     def number(self, token: lark.Token) -> int:
         value = float(token.value)
@@ -602,12 +887,17 @@ class _Compiler:
             raise self.src.error(
                 DesignSyntaxError, f"number too large: '{shown}'", token.start_pos, "numbers must be below about 1.8e308"
             )
-        return self.graph.const(value)
+        return self.const(value)
 
     def name(self, token: lark.Token) -> int:
         name = token.value
+        scope = self.lookup(name)
+        if scope is not None:
+            return scope[name]
+        if name in LITERALS:
+            return self.const(LITERALS[name])
         if name in CONSTANTS:
-            return self.graph.const(CONSTANTS[name])
+            return self.const(CONSTANTS[name])
         if name in VARIABLES:
             canonical = _CANONICAL.get(name, name)
             self.used.add(canonical)
@@ -622,25 +912,27 @@ class _Compiler:
                 token.start_pos,
                 f"call it: {FUNCTIONS[name].signature}",
             )
-        hint = did_you_mean(name, [*VARIABLES, *CONSTANTS]) or "variables are " + ", ".join(VARIABLES) + "; constants pi, e"
+        known = [*VARIABLES, *CONSTANTS, *(n for scope in self.scopes for n in scope)]
+        hint = did_you_mean(name, known) or (
+            "variables are " + ", ".join(VARIABLES) + f"; constants pi, e; a local is declared with var {original} := ..."
+        )
         raise self.src.error(DesignError, f"unknown variable '{original}'", token.start_pos, hint)
 
     # operations
-    def call(self, token: lark.Token, args: list[int]) -> int:
-        name = token.value[:-1].rstrip(" \t\r\n")
+    def check_call(self, token: lark.Token, name: str, n: int) -> Function:
+        """The function ``name`` called at ``token`` with ``n`` arguments, or a located error."""
         shown = self.src.text[token.start_pos : token.start_pos + len(name)]
         if name not in FUNCTIONS:
-            if name in VARIABLES or name in CONSTANTS:
+            if name in VARIABLES or name in CONSTANTS or name in LITERALS or self.lookup(name) is not None:
                 raise self.src.error(
                     DesignError,
                     f"'{shown}' is not a function",
                     token.start_pos,
                     f"write {shown}*(...) to multiply",
                 )
-            hint = did_you_mean(name, FUNCTIONS) or "functions are " + ", ".join(FUNCTIONS)
+            hint = _UNSUPPORTED_FUNCTIONS.get(name) or did_you_mean(name, FUNCTIONS) or "functions are " + ", ".join(FUNCTIONS)
             raise self.src.error(DesignError, f"unknown function '{shown}'", token.start_pos, hint)
         function = FUNCTIONS[name]
-        n = len(args)
         if function.variadic and n < 1:
             raise self.src.error(
                 DesignError, f"{name} takes at least 1 argument, got 0", token.start_pos, f"write {function.signature}"
@@ -654,67 +946,190 @@ class _Compiler:
                 token.start_pos,
                 f"write {function.signature}",
             )
-        if name == "if":
-            return self.emit(_select, args)
+        return function
+
+    def call(self, name: str, function: Function, args: list[int]) -> int:
+        n = len(args)
+        composite = _COMPOSITES.get(name)
+        if composite is not None:
+            return composite(self, *args)
         if name == "avg":
-            return self.emit(np.divide, [self.fold([np.add] * (n - 1), args), self.graph.const(float(n))])
+            return self.emit(np.divide, [self.fold([np.add] * (n - 1), args), self.const(float(n))])
         if function.variadic:
             return self.fold([_KERNELS[name]] * (n - 1), args)
         return self.emit(_KERNELS[name], args)
 
-    def node(self, tree: lark.Tree, args: list[int]) -> int:
-        kind = tree.data
-        children = tree.children
-        if kind == "call":
-            return self.call(children[0], args)
-        if kind == "ternary":
-            return self.emit(_select, args)
+    def logic(self, children: list, depth: int) -> int:
+        """``a op b op c ...`` left to right; ``&`` and ``|`` run their right operand's
+        assignments only where it is evaluated (left to right short-circuit)."""
+        acc = self.visit(children[0], depth)
+        for i in range(1, len(children), 2):
+            op = children[i].children[0].value
+            if op == "&":
+                operand = self.guarded(acc, children[i + 1], depth)
+            elif op == "|":
+                operand = self.guarded(self.emit(_not, [acc]), children[i + 1], depth)
+            else:
+                operand = self.visit(children[i + 1], depth)
+            acc = _LOGIC[op](self, acc, operand)
+        return acc
+
+    def short_circuit(self, token: lark.Token, name: str, items: list, depth: int) -> int:
+        """``mand``/``mor``: every argument after the first runs its assignments only
+        where the result is still undecided."""
+        self.check_call(token, name, len(items))
+        acc = self.visit(items[0], depth)
+        kernel = np.logical_and if name == "mand" else np.logical_or
+        for item in items[1:]:
+            guard = acc if name == "mand" else self.emit(_not, [acc])
+            acc = self.emit(kernel, [acc, self.guarded(guard, item, depth)])
+        return self.emit(_truth, [acc]) if len(items) == 1 else acc
+
+    def switch(self, cases: list[lark.Tree], depth: int) -> int:
+        """The first case whose condition holds, else the default (NaN without one)."""
+        default = None
+        branches: list[tuple[int, int, list[dict[str, int]]]] = []
+        for case in cases:
+            if case.data == "default":
+                if default is not None:
+                    raise self.src.error(
+                        DesignSyntaxError, "a switch has at most one default", case.meta.start_pos,
+                        "remove one of the defaults",
+                    )
+                default = case
+        for case in cases:
+            if case.data == "case":
+                condition = self.visit(case.children[0], depth)
+                before = self.snapshot()
+                value = self.visit(case.children[1], depth)
+                branches.append((condition, value, self.snapshot()))
+                self.restore(before)
+        result = self.const(math.nan) if default is None else self.visit(default.children[0], depth)
+        for condition, value, taken in reversed(branches):
+            self.join(condition, taken)
+            result = self.choose(condition, value, result)
+        return result
+
+    def visit(self, item: lark.Tree | lark.Token, depth: int) -> int:
+        """The node of ``item``'s value; statements in it update the locals."""
+        if isinstance(item, lark.Token):
+            return self.number(item) if item.type == "NUMBER" else self.name(item)
+        if depth >= MAX_DEPTH:
+            raise self.src.error(
+                DesignSyntaxError,
+                f"expression nested too deeply (more than {MAX_DEPTH} levels)",
+                item.meta.start_pos,
+                "split it into simpler expressions",
+            )
+        kind = item.data
+        children = item.children
+        deeper = depth + 1
         if kind in ("sum", "product"):
-            ops = [_BINARY[c.value] for c in children if isinstance(c, lark.Token) and c.type in ("ADDOP", "MULOP")]
-            return self.fold(ops, args)
+            operands = []
+            ops = []
+            for c in children:
+                if isinstance(c, lark.Token) and c.type in ("ADDOP", "MULOP"):
+                    ops.append(_BINARY[c.value])
+                else:
+                    operands.append(self.visit(c, deeper))
+            return self.fold(ops, operands)
+        if kind == "call":
+            token = children[0]
+            name = token.value[:-1].rstrip(" \t\r\n")
+            if name in ("mand", "mor"):
+                return self.short_circuit(token, name, children[1:], deeper)
+            args = []
+            for c in children[1:]:
+                args.append(self.visit(c, deeper))
+            return self.call(name, self.check_call(token, name, len(args)), args)
         if kind == "implicit":
-            return self.fold([np.multiply] * (len(args) - 1), args)
+            operands = []
+            for c in children:
+                operands.append(self.visit(c, deeper))
+            return self.fold([np.multiply] * (len(operands) - 1), operands)
         if kind == "power":
-            return self.emit(np.power, args)
+            base = self.visit(children[0], deeper)
+            return self.emit(np.power, [base, self.visit(children[1], deeper)])
         if kind == "signed":
             minus = sum(1 for c in children if isinstance(c, lark.Token) and c.value == "-")
-            return self.emit(np.negative, args) if minus % 2 else args[0]
+            operand = self.visit(children[-1], deeper)
+            return self.emit(np.negative, [operand]) if minus % 2 else operand
         if kind == "comparison":
-            return self.emit(_BINARY[children[1].value], args)
+            left = self.visit(children[0], deeper)
+            return self.emit(_BINARY[children[1].value], [left, self.visit(children[2], deeper)])
         if kind == "not_":
             nots = sum(1 for c in children if isinstance(c, lark.Token) and c.type == "NOT")
-            return self.emit(_not if nots % 2 else _truth, args)
-        if kind == "and_":
-            return self.fold([np.logical_and] * (len(args) - 1), args)
-        if kind == "or_":
-            return self.fold([np.logical_or] * (len(args) - 1), args)
+            return self.emit(_not if nots % 2 else _truth, [self.visit(children[-1], deeper)])
+        if kind == "logic":
+            return self.logic(children, deeper)
+        if kind == "ternary":
+            return self.conditional(self.visit(children[0], deeper), children[1], children[2], deeper)
+        if kind == "ifcall":
+            self.check_call(children[0], "if", len(children) - 1)
+            return self.conditional(self.visit(children[1], deeper), children[2], children[3], deeper)
+        if kind == "ifstmt":
+            otherwise = children[3] if len(children) > 3 else None
+            return self.conditional(self.visit(children[1], deeper), children[2], otherwise, deeper)
+        if kind == "switch":
+            return self.switch(children, deeper)
+        if kind == "block":
+            return self.sequence(children, deeper)
+        if kind == "assign":
+            return self.assign(children[0], children[1], children[2], deeper)
+        if kind == "declare":
+            value = self.visit(children[2], deeper) if len(children) > 1 else self.const(0.0)
+            return self.declare(children[0], value)
         raise AssertionError(f"grammar rule without a compiler: {kind}")
 
-    def compile(self, root: lark.Tree | lark.Token) -> int:
-        """Post-order walk with an explicit stack (no recursion), checking the depth."""
-        values: list[int] = []
-        stack: list[tuple[lark.Tree | lark.Token, int, bool]] = [(root, 0, False)]
-        while stack:
-            item, depth, expanded = stack.pop()
-            if isinstance(item, lark.Token):
-                values.append(self.number(item) if item.type == "NUMBER" else self.name(item))
-                continue
-            if expanded:
-                n = sum(1 for c in item.children if _is_operand(c))
-                args = values[len(values) - n :]
-                del values[len(values) - n :]
-                values.append(self.node(item, args))
-                continue
-            if depth >= MAX_DEPTH:
-                raise self.src.error(
-                    DesignSyntaxError,
-                    f"expression nested too deeply (more than {MAX_DEPTH} levels)",
-                    item.meta.start_pos,
-                    "split it into simpler expressions",
-                )
-            stack.append((item, depth, True))
-            stack.extend((c, depth + 1, False) for c in reversed(item.children) if _is_operand(c))
-        return values[0]
+    def compile(self, root: lark.Tree) -> int:
+        """The node of the text's value: its statements, at nesting level 0."""
+        return self.sequence(root.children, 0)
+
+
+_EQUAL_EPSILON = 1e-10
+"""ExprTk's tolerance of equal/not_equal for doubles, relative to max(1, |x|, |y|)."""
+
+
+def _tolerance(c: _Compiler, a: int, b: int) -> tuple[int, int]:
+    """``|a - b|`` and ``1e-10 * max(1, |a|, |b|)`` (ExprTk's normalised epsilon)."""
+    scale = c.emit(np.maximum, [c.const(1.0), c.emit(np.maximum, [c.emit(np.absolute, [a]), c.emit(np.absolute, [b])])])
+    return c.emit(np.absolute, [c.emit(np.subtract, [a, b])]), c.emit(np.multiply, [scale, c.const(_EQUAL_EPSILON)])
+
+
+def _iclamp(c: _Compiler, lo: int, x: int, hi: int) -> int:
+    outside = c.emit(np.logical_or, [c.emit(np.less_equal, [x, lo]), c.emit(np.greater_equal, [x, hi])])
+    lower = c.emit(np.less_equal, [c.emit(np.multiply, [c.const(2.0), x]), c.emit(np.add, [hi, lo])])
+    return c.choose(outside, x, c.choose(lower, lo, hi))
+
+
+_COMPOSITES: dict[str, Callable[..., int]] = {
+    "logn": lambda c, x, n: c.emit(np.divide, [c.emit(np.log, [x]), c.emit(np.log, [n])]),
+    "equal": lambda c, a, b: c.emit(np.less_equal, list(_tolerance(c, a, b))),
+    "not_equal": lambda c, a, b: c.emit(np.greater, list(_tolerance(c, a, b))),
+    "inrange": lambda c, lo, x, hi: c.emit(_not, [c.emit(np.logical_or, [c.emit(np.less, [x, lo]), c.emit(np.greater, [x, hi])])]),
+    "iclamp": _iclamp,
+    "ncdf": lambda c, x: c.emit(
+        np.multiply, [c.const(0.5), c.emit(kernels.erfc, [c.emit(np.negative, [c.emit(np.divide, [x, c.const(math.sqrt(2.0))])])])]
+    ),
+    "sec": lambda c, x: c.emit(np.divide, [c.const(1.0), c.emit(np.cos, [x])]),
+    "csc": lambda c, x: c.emit(np.divide, [c.const(1.0), c.emit(np.sin, [x])]),
+    "cot": lambda c, x: c.emit(np.divide, [c.const(1.0), c.emit(np.tan, [x])]),
+    "deg2grad": lambda c, x: c.emit(np.multiply, [x, c.const(10.0 / 9.0)]),
+    "grad2deg": lambda c, x: c.emit(np.multiply, [x, c.const(9.0 / 10.0)]),
+}
+"""Functions compiled into operations of the language (ExprTk's definitions)."""
+
+_LOGIC: dict[str, Callable[[_Compiler, int, int], int]] = {
+    "and": lambda c, a, b: c.emit(np.logical_and, [a, b]),
+    "&": lambda c, a, b: c.emit(np.logical_and, [a, b]),
+    "or": lambda c, a, b: c.emit(np.logical_or, [a, b]),
+    "|": lambda c, a, b: c.emit(np.logical_or, [a, b]),
+    "xor": lambda c, a, b: c.emit(np.logical_xor, [a, b]),
+    "nand": lambda c, a, b: c.emit(_not, [c.emit(np.logical_and, [a, b])]),
+    "nor": lambda c, a, b: c.emit(_not, [c.emit(np.logical_or, [a, b])]),
+    "xnor": lambda c, a, b: c.emit(_not, [c.emit(np.logical_xor, [a, b])]),
+}
+"""The binary logic operators: 1.0 or 0.0, any nonzero value (NaN included) is true."""
 
 
 def _deep_paren(text: str) -> int | None:
@@ -723,10 +1138,6 @@ def _deep_paren(text: str) -> int | None:
     depth = np.cumsum((codes == ord("(")).astype(np.int64) - (codes == ord(")")))
     over = np.flatnonzero(depth > MAX_DEPTH)
     return int(over[0]) if over.size else None
-
-
-def _is_operand(child: lark.Tree | lark.Token) -> bool:
-    return isinstance(child, lark.Tree) or child.type in ("NUMBER", "NAME")
 
 
 # -- the compiled expression ---------------------------------------------------------------
@@ -900,8 +1311,9 @@ def compile_expression(
     Raises:
         DesignSyntaxError: the text is not an expression of the language (including text
             longer than :data:`MAX_LENGTH`, nesting deeper than :data:`MAX_DEPTH` and
-            numbers that overflow float64).
-        DesignError: an unknown name, a function used as a value, a wrong argument count.
+            numbers that overflow float64, and loops, strings and vectors, refused by name).
+        DesignError: an unknown name, a function used as a value, a wrong argument count,
+            an assignment to anything but a declared local, a local declared twice.
     """
     src = _Source(text, None if file is None else str(file), line, column, file_lines)
     if len(text) > MAX_LENGTH:
@@ -925,6 +1337,8 @@ def compile_expression(
         tree = _PARSER.parse(text.translate(_LOWER))
     except lark.exceptions.UnexpectedInput as exc:
         raise _syntax_error(src, exc) from None
+    except _LoopKeyword as loop:
+        raise _loop_error(src, loop.token) from None
     compiler = _Compiler(src)
     root = compiler.compile(tree)
     return Expression(
