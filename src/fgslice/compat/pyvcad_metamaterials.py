@@ -33,9 +33,12 @@ A design script imports this module as ``pyvcad_metamaterials`` (see
 Lengths are mm. ``wall_thickness``, ``level``, ``beam_radius`` and ``node_radius`` may be
 graded: a number, an fgslice expression string, a Python function ``f(x, y, z)`` of numpy
 arrays, or an OpenVCAD 3 attribute (anything with ``to_field()``), in the lattice's frame.
+* ``properties.characterize(node, voxel_size, bounds=None, periodic_axes="")`` and
+  ``properties.characterize_graph_cell(cell, cell_size, beam_radius)``: the reports of
+  :mod:`fgslice.analysis.characterize`.
+
 Names outside this subset fail by name, with the reason for conformal maps
-(``cell_map_from_surface``...), ``warp_cell_map``, ``mix_many``, ``idw_weight`` and
-``properties``.
+(``cell_map_from_surface``...), ``warp_cell_map``, ``mix_many`` and ``idw_weight``.
 """
 
 from __future__ import annotations
@@ -62,7 +65,7 @@ LATTICE_NAMES = lattice.GRAPH_CELLS
 
 __all__ = [
     "TPMS_NAMES", "LATTICE_NAMES", "CellMap", "rectangular_cell_map", "ImplicitUnitCell", "GraphUnitCell",
-    "tpms", "graph_lattice", "ramp", "mix", *TPMS_NAMES, *LATTICE_NAMES,
+    "tpms", "graph_lattice", "ramp", "mix", "properties", *TPMS_NAMES, *LATTICE_NAMES,
 ]
 
 _CONFORMAL = ("OpenVCAD's conformal cell maps flatten a surface into a chart and fill the offset volume with "
@@ -80,8 +83,6 @@ _REFUSED = {
                  "nest mix(first, second, weight) calls"),
     "idw_weight": ("OpenVCAD does not document its inverse-distance weighting (power, cut-off)",
                    "give the weight as a FloatAttribute expression of the distance to your seed points"),
-    "properties": ("geometric characterization is an analysis, not part of a design to print",
-                   "remove the characterization calls from the script; fgslice slices the design 'root'"),
 }
 """Names of OpenVCAD's module that fgslice refuses, with the reason and what to do instead."""
 
@@ -415,3 +416,47 @@ def _lattice_builder(name: str):
 
 globals().update({name: _tpms_builder(name) for name in TPMS_NAMES})
 globals().update({name: _lattice_builder(name) for name in LATTICE_NAMES})
+
+
+class _Properties:
+    """``pyvcad_metamaterials.properties``: geometric characterization
+    (:mod:`fgslice.analysis.characterize`)."""
+
+    @staticmethod
+    def characterize(node, voxel_size, bounds=None, periodic_axes: str = ""):
+        """The report of ``node`` within ``bounds`` (a ``(min, max)`` pair of Vec3; the
+        node's bounding box when None) on voxels of ``voxel_size`` mm."""
+        from fgslice.analysis.characterize import characterize
+        from fgslice.compat.pyvcad import to_node
+        from fgslice.design import api
+
+        owner = "properties.characterize"
+        if not isinstance(node, Node):
+            raise DesignError(f"{owner}: the first argument is a pyvcad node, got {type(node).__name__}", hint=_DOCS)
+        design = api.design(to_node(node))
+        if bounds is None:
+            lo, hi = (np.asarray(v, dtype=float) for v in design.bounds())
+        elif isinstance(bounds, Sequence) and len(bounds) == 2:
+            lo, hi = (_point(owner, what, v) for what, v in zip(("the minimum corner", "the maximum corner"), bounds))
+        else:
+            raise DesignError(f"{owner}: bounds is a (min, max) pair of pyvcad.Vec3, got {bounds!r}", hint=_DOCS)
+        return characterize(design.sdf, lo, hi, _number(owner, "voxel_size", voxel_size), periodic_axes)
+
+    @staticmethod
+    def characterize_graph_cell(cell, cell_size, beam_radius):
+        """The exact strut report of ``cell`` (a name of :data:`LATTICE_NAMES` or a
+        ``GraphUnitCell``) at ``cell_size`` (mm, a number or 3) and ``beam_radius`` (mm)."""
+        from fgslice.analysis.characterize import characterize_graph_cell
+
+        edges = cell.edges if isinstance(cell, GraphUnitCell) else lattice.graph_cell(cell)
+        size = cell_size if isinstance(cell_size, numbers.Real) else _point("characterize_graph_cell", "cell_size",
+                                                                           cell_size)
+        return characterize_graph_cell(edges, size, _number("characterize_graph_cell", "beam_radius", beam_radius))
+
+    def __getattr__(self, name: str):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        raise _unsupported("pyvcad_metamaterials.properties", name)
+
+
+properties = _Properties()
