@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib.util
 import re
+import textwrap
 import shutil
 from datetime import datetime, timezone
 from pathlib import Path
@@ -420,3 +421,30 @@ def test_graph_cell_report_of_the_octet(tmp_path, capsys):
     strut = 16.0 / np.sqrt(2)  # half a face diagonal = an octahedron edge
     assert float(printed[3]) == pytest.approx(strut / 1.6)
     assert float(printed[4]) == pytest.approx(2 * strut / 0.8)
+
+
+def test_mixed_bodies_blend_their_attributes_and_materials_with_the_weight(tmp_path):
+    path = tmp_path / "mixed.py"
+    path.write_text(textwrap.dedent("""
+        import pyvcad as pv
+        import pyvcad_metamaterials as mm
+
+        materials = pv.default_materials
+        left = pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(20, 10, 10))
+        left.set_attribute(pv.DefaultAttributes.DENSITY, pv.FloatAttribute(1.0))
+        left.set_attribute(pv.DefaultAttributes.VOLUME_FRACTIONS,
+                           pv.VolumeFractionsAttribute([("1.0", materials.id("red"))]))
+        right = pv.RectPrism(pv.Vec3(0, 0, 0), pv.Vec3(20, 10, 10))
+        right.set_attribute(pv.DefaultAttributes.DENSITY, pv.FloatAttribute("3 + 0 * x"))
+        right.set_attribute(pv.DefaultAttributes.VOLUME_FRACTIONS,
+                            pv.VolumeFractionsAttribute([("1.0", materials.id("blue"))]))
+        root = mm.mix(left, right, mm.ramp(-5.0, 5.0, axis="x"))
+    """))
+    design = load_script(path)
+    points = [(-8, 0, 0), (-2.5, 0, 0), (0, 0, 0), (8, 0, 0)]
+    np.testing.assert_allclose(_values(design, "density", *points), [1, 1.5, 2, 3])
+    x, y, z = np.array(points, dtype=float).T
+    mix = design.fractions(x, y, z)
+    names = [m.name for m in design.materials]
+    np.testing.assert_allclose(mix[:, names.index("blue")], [0, 0.25, 0.5, 1])
+    np.testing.assert_allclose(mix[:, names.index("red")], [1, 0.75, 0.5, 0])
