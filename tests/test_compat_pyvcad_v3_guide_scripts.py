@@ -448,3 +448,28 @@ def test_mixed_bodies_blend_their_attributes_and_materials_with_the_weight(tmp_p
     names = [m.name for m in design.materials]
     np.testing.assert_allclose(mix[:, names.index("blue")], [0, 0.25, 0.5, 1])
     np.testing.assert_allclose(mix[:, names.index("red")], [1, 0.75, 0.5, 0])
+
+
+@pytest.mark.parametrize("name", ["attribute_driven_12_mixed_unit_cells", "heterogeneous_02_mix_across_a_region",
+                                  "attribute_driven_09_alternating_cell_thickness"])
+def test_the_sections_of_mixed_and_cell_graded_lattices_hold_the_design_volume(name, tmp_path):
+    design = load_script(_placed(name, tmp_path))
+    lo, hi = (np.asarray(v) for v in design.bounds())
+    dz = 0.5
+    zs = np.arange(lo[2] + dz / 2, hi[2], dz)
+    layered = sum(s.area for s in design.sections(list(zs))) * dz
+    points = np.random.default_rng(11).uniform(lo, hi, (60000, 3))
+    sampled = np.mean(design.sdf(*points.T) < 0) * np.prod(hi - lo)
+    assert layered == pytest.approx(sampled, rel=0.03)
+
+
+def test_whole_cells_alternate_thin_and_thick_walls(tmp_path):
+    design = load_script(_placed("attribute_driven_09_alternating_cell_thickness", tmp_path))
+    rng = np.random.default_rng(4)
+    solid = []
+    for cell in range(6):  # 8 mm cells from x = -24
+        points = rng.uniform((-24 + 8 * cell, -4, -4), (-16 + 8 * cell, 4, 4), (20000, 3))
+        solid.append(np.mean(design.sdf(*points.T) < 0))
+    even, odd = np.array(solid[0::2]), np.array(solid[1::2])
+    # walls of 0.3 mm in even cells, 1.8 mm in odd ones: about six times the solid
+    np.testing.assert_allclose(odd / even, 6.0, rtol=0.2)
