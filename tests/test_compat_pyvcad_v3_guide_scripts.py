@@ -309,6 +309,13 @@ def test_earlier_builder_arguments_name_their_replacement(tmp_path):
         mm.octet(radius=0.8)
     with pytest.raises(DesignError, match=r"tpms has no argument 'wall'"):
         mm.tpms(None, "gyroid", wall=1.0)
+    body = mm.gyroid(mm.rectangular_cell_map(((0, 0, 0), (8, 8, 8)), cells=1))
+    with pytest.raises(DesignError, match=r"mix: give either a weight or region"):
+        mm.mix(body, body)
+    with pytest.raises(DesignError, match=r"mix: half_width goes with region"):
+        mm.mix(body, body, 0.5, half_width=2.0)
+    with pytest.raises(DesignError, match=r'ramp: axis "u" is a logical axis'):
+        mm.ramp(0.0, 1.0, axis="u")
 
 
 # ------------------------------------------------------------------- the resolver and volumes

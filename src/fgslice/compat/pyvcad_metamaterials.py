@@ -389,6 +389,8 @@ def mix(first, second, weight=None, region=None, half_width=None) -> Node:
         if half_width <= 0:
             raise DesignError(f"mix: half_width must be positive, got {half_width:g}")
         return _Mixed(first, second, None, region, half_width)
+    if half_width is not None:
+        raise DesignError("mix: half_width goes with region=...; a weight field sets the blend itself", hint=_DOCS)
     lattice.Length("mix", "weight", weight, positive=False)
     return _Mixed(first, second, weight, None, None)
 
