@@ -70,7 +70,7 @@ from fgslice.slicing.field import BedField
 from fgslice.slicing.layers import LayerRegions, Placement
 from fgslice.slicing.palette import Palette
 from fgslice.slicing.plan_layers import layer_heights, place_design
-from fgslice.slicing.regions import polygonal_each, slice_layer
+from fgslice.slicing.regions import polygonal, polygonal_each, slice_layer
 from fgslice.slicing.states import StatePalette, field_for, make_palette, material_palette, state_levels
 from fgslice.toolpaths import strategy1, strategy2
 from fgslice.toolpaths.fuzzy_skin import FuzzySkin
@@ -223,7 +223,10 @@ def _below_outline(job: SliceJob, index: int) -> shapely.Geometry | None:
     ox, oy, oz = job.placement.offset
     _, z_top, height = job.layers[index - 1]
     section = job.sections[index - 1] if job.sections else job.design.section(z_top - height / 2 - oz)
-    return shapely.transform(section, lambda c: c + np.array([ox, oy]))
+    below = shapely.transform(section, lambda c: c + np.array([ox, oy]))
+    # rings a hair apart in the design's frame (two bodies cut by one plane) can meet once
+    # moved onto the bed, where coordinates are coarser: such an outline is repaired
+    return below if shapely.is_valid(below) else polygonal(shapely.make_valid(below))
 
 
 def _plane_task(job: SliceJob, indices: Sequence[int]) -> list[shapely.Geometry]:

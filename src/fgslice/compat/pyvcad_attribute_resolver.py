@@ -14,8 +14,11 @@ with a factory of a fresh converter) and :func:`adapt`, which wraps a design in 
 * targets are taken in order, each seeing what the earlier ones added.
 
 OpenVCAD's bundled modules (foaming TPU / LW-PLA, J750 tables) register measured
-tables that its documentation does not publish; they are refused by name. Register
-the tables of your own filament with :func:`register_conversion`.
+tables that its documentation does not publish; they are refused by name, except
+:func:`register_pla_conversions`, which registers the one table the documentation prints
+(LW-PLA temperature -> flow rate, tag ``foaming_pla``) and leaves out its unpublished
+density -> temperature table. Register the tables of your own filament with
+:func:`register_conversion`.
 """
 
 from __future__ import annotations
@@ -30,10 +33,15 @@ _DOCS = "see the OpenVCAD 3 section of docs/language.md"
 
 __all__ = [
     "register_conversion", "unregister_conversion", "list_conversions", "clear_conversions", "adapt", "list_modules",
-    "ConversionEntry", "ResolverError", "NoPathError", "AmbiguousPathError",
+    "ConversionEntry", "ResolverError", "NoPathError", "AmbiguousPathError", "register_pla_conversions",
 ]
 
-_BUNDLED = ("register_foaming_conversions", "register_tpu_conversions", "register_pla_conversions",
+PLA_FLOW_COMPENSATION = ((220, 1.42), (224, 1.23), (228, 1.08), (232, 0.98), (236, 0.86),
+                         (240, 0.76), (244, 0.72), (248, 0.69), (252, 0.67), (256, 0.66))
+"""LW-PLA's flow compensation, (temperature C, flow-rate factor), as OpenVCAD's attribute
+modifier guide prints it."""
+
+_BUNDLED = ("register_foaming_conversions", "register_tpu_conversions",
             "register_j750_shore_hardness_conversions", "register_j750_modulus_toughness_conversions",
             "generate_j750_modulus_toughness_lookup_table", "generate_j750_modulus_toughness_reachable_region_plot")
 
@@ -129,6 +137,21 @@ def list_modules() -> list[str]:
     return []
 
 
+def register_pla_conversions() -> None:
+    """Register LW-PLA's temperature -> flow_rate conversion (:data:`PLA_FLOW_COMPENSATION`,
+    linear, tag ``foaming_pla``). OpenVCAD's density -> temperature table for LW-PLA is not
+    published, so no conversion reaches temperature from density."""
+    from fgslice.compat import pyvcad_v3 as pv
+
+    def converter():
+        entries = [pv.LookupTableEntry(t, t, flow) for t, flow in PLA_FLOW_COMPENSATION]
+        return pv.LookupTableConverter([pv.DefaultAttributes.TEMPERATURE], [pv.DefaultAttributes.FLOW_RATE], entries,
+                                       pv.InterpolationMode.LINEAR)
+
+    register_conversion("temperature", "flow_rate", converter, name="foaming_pla_temperature_to_flow_rate",
+                        tags=["foaming_pla"])
+
+
 def _chains(available: frozenset[str], target: str, edges: list[ConversionEntry], max_depth: int):
     """Every shortest chain of ``edges`` from ``available`` to ``target`` (breadth first,
     one chain length at a time; the same edges in another order count once)."""
@@ -170,7 +193,8 @@ def adapt(design, target_attributes, allowed_conversions=None, tags=None, max_de
         if not chains:
             raise NoPathError(f"adapt: no chain of registered conversions reaches '{target}' from the design's "
                               f"attributes ({', '.join(sorted(available)) or 'none'})",
-                              hint="register_conversion(...) one that does")
+                              hint="register_conversion(...) one that does (fgslice registers none of OpenVCAD's "
+                                   "unpublished tables, such as LW-PLA's density -> temperature)")
         best = max(sum(e.priority for e in chain) for chain in chains)
         top = [chain for chain in chains if sum(e.priority for e in chain) == best]
         if len(top) > 1:

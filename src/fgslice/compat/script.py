@@ -108,7 +108,11 @@ def _script_error(error: BaseException, path: Path, message: str) -> DesignError
     where = _script_frame(error.__traceback__, path)
     if where.file is None:
         where = nodes.Where(str(path))
-    return DesignError(message, hint="the error is in the script, at the line shown", **where.error_kwargs())
+    hint = "the error is in the script, at the line shown"
+    if isinstance(error, ModuleNotFoundError) and error.name:
+        hint = (f"the script imports '{error.name}', which is not installed in fgslice's Python environment: "
+                f"install it there (e.g. pip install {error.name.split('.')[0]})")
+    return DesignError(message, hint=hint, **where.error_kwargs())
 
 
 def _root(run: context.Run, namespace: dict, path: Path) -> tuple[pyvcad.Node, nodes.Where]:

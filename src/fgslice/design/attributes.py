@@ -6,7 +6,8 @@ infill density) attached to parts of the design tree.
 is its children's signed distance), and at any point of the part the nearest enclosing
 attribute of that name decides (the children of a union own their points as for
 materials: the first child containing the point, else the nearest one; ``intersection``
-and ``difference`` take their first child's). Geometry and materials pass through
+and ``difference`` take their first child's; two bodies mixed by a weight,
+:class:`fgslice.design.mix.Mix`, blend theirs). Geometry and materials pass through
 unchanged. Where no attribute of a name encloses a point, the slice's settings decide.
 
 Units: ``temperature`` degrees Celsius; ``flow`` percent of the nominal extrusion;
@@ -30,6 +31,7 @@ import numpy as np
 from fgslice.design import nodes
 from fgslice.design.attribute_ops import AttributeCarrier, AttributeOperator
 from fgslice.design.membership import owners
+from fgslice.design.mix import Mix
 from fgslice.design.tile import Tiled
 from fgslice.errors import DesignError, did_you_mean
 
@@ -155,6 +157,10 @@ class AttributeFields:
         children = node.children
         if isinstance(node, (nodes.Intersection, nodes.Difference)) or len(children) == 1:
             return self._values(children[0], name, x, y, z, ctx)
+        if isinstance(node, Mix):
+            first, second = (self._values(child, name, x, y, z, ctx) for child in children)
+            both = node.mixed(first, second, x, y, z)
+            return np.where(np.isnan(first), second, np.where(np.isnan(second), first, both))
         owner = owners(children, x, y, z)  # the union's rule for materials, the same here
         out = ctx.copy()
         for i, child in enumerate(children):

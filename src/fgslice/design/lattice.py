@@ -11,7 +11,8 @@ sections from a 2-D field sampled on a grid (:mod:`fgslice.design.lattice_sectio
 * :class:`TPMS`: the level set of a periodic field ``g`` over phases ``X = 2 pi u`` (``u``
   the position in cells). ``d = g / |grad g|`` (mm, the first-order distance to the
   surface ``g = 0``) defines the body: a sheet ``|d - level| <= thickness / 2`` or a solid
-  ``d <= level``. Thickness and level may be graded.
+  ``d <= level``. Thickness and level may be graded. :class:`MixedTPMS` changes from one
+  cell to another along a graded weight.
 
 A node is confined to its ``window`` box (``lo``, ``hi``; the geometry is clipped to it).
 A tiled lattice made without one (OpenVCAD 2's ``Tile``) has no bounds until an
@@ -367,12 +368,16 @@ class TPMS(Periodic):
         """``g / |grad g|`` (mm) at the points (broadcast): negative on the solid side. The
         gradient is a central difference of :data:`_STEP` radians, the shifted sines and
         cosines taken from the point's own by the angle-sum formulas."""
+        return self.field_distance(self.surface, x, y, z)
+
+    def field_distance(self, surface: Callable, x, y, z):
+        """:meth:`distance` of the periodic field ``surface`` on this node's cells."""
         k = 2 * np.pi / self.period
         trig = []
         for v, o, kk in zip((x, y, z), self.origin, k):
             phase = (v - o) * kk
             trig += [np.sin(phase), np.cos(phase)]
-        g = self.surface(*trig)
+        g = surface(*trig)
         ch, sh = math.cos(self._STEP), math.sin(self._STEP)
         slope2 = 0.0
         for axis in range(3):
@@ -380,7 +385,7 @@ class TPMS(Periodic):
             ahead, behind = list(trig), list(trig)
             ahead[2 * axis: 2 * axis + 2] = s * ch + c * sh, c * ch - s * sh
             behind[2 * axis: 2 * axis + 2] = s * ch - c * sh, c * ch + s * sh
-            slope = (self.surface(*ahead) - self.surface(*behind)) * (k[axis] / (2 * self._STEP))
+            slope = (surface(*ahead) - surface(*behind)) * (k[axis] / (2 * self._STEP))
             slope2 = slope2 + slope * slope
         return g / np.maximum(np.sqrt(slope2), 1e-6 * float(k.min()))
 
@@ -393,6 +398,23 @@ class TPMS(Periodic):
 
     def sdf(self, x, y, z):
         return self._clip(self.body(self.distance(x, y, z), x, y, z), x, y, z)
+
+
+class MixedTPMS(TPMS):
+    """A TPMS whose cell changes from ``surfaces[0]`` (``weight`` 0) to ``surfaces[1]``
+    (``weight`` 1): the distance is ``(1 - w) d0 + w d1`` of the two cells' distances
+    (mm), the weight clamped to 0..1, so the wall keeps its thickness through the blend."""
+
+    kind = "tpms"
+
+    def __init__(self, surfaces: tuple[Callable, Callable], weight: Length, period, origin, window, **options) -> None:
+        super().__init__(surfaces[0], period, origin, window, **options)
+        self.surfaces, self.weight = surfaces, weight
+        self.harmonic = max(2 if s in _SECOND_HARMONIC else 1 for s in surfaces)
+
+    def distance(self, x, y, z):
+        w = np.clip(self.weight(x, y, z), 0.0, 1.0)
+        return (1 - w) * self.field_distance(self.surfaces[0], x, y, z) + w * self.field_distance(self.surfaces[1], x, y, z)
 
 
 # ---------------------------------------------------------------------------- confining
