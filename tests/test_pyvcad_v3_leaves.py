@@ -251,3 +251,26 @@ def test_volume_fractions_take_plain_material_numbers_as_fgrade_does(tmp_path):
 def test_rotate_with_only_a_child_turns_nothing(tmp_path):
     design = _design(tmp_path, "root = pv.Rotate(pv.RectPrism(pv.Vec3(1, 2, 3), pv.Vec3(2, 4, 6)))\n")
     assert _bounds(design) == pytest.approx([0, 0, 0, 2, 4, 6])
+
+
+def test_bounding_box_gives_the_shapes_corners_after_prepare(tmp_path):
+    design = _design(tmp_path, """
+        shape = pv.Union(pv.Sphere(pv.Vec3(1, 2, 3), 10), pv.RectPrism(pv.Vec3(1, 2, 20), pv.Vec3(4, 4, 30)))
+        shape.prepare(pv.Vec3(0.5, 0.5, 0.5), 1.0, 1.0)
+        lo, hi = shape.bounding_box()
+        root = pv.RectPrism.FromMinAndMax(lo, hi)
+    """)
+    assert _bounds(design) == pytest.approx([-9, -8, -7, 11, 12, 35], abs=1e-6)
+
+
+@pytest.mark.parametrize("code, message", [
+    ("pv.Sphere(pv.Vec3(0, 0, 0), 1).prepare(0.5, 1.0)", "prepare takes a voxel size Vec3 of positive sizes first"),
+    ("pv.Sphere(pv.Vec3(0, 0, 0), 1).prepare(pv.Vec3(0.5, 0.5, 0.5), -1)", "bandwidths are numbers >= 0"),
+    ("pv.TriangleMeshSurface([], [])", "TriangleMeshSurface is not supported by fgslice: OpenVCAD's conformal cell maps"),
+    ("pv.TrimMode.CLIP", "TrimMode is not supported by fgslice: OpenVCAD's conformal cell maps"),
+    ("pv.vdb_loader.load_float_volume('a.vdb', 'density')", "vdb_loader is not supported by fgslice: its data is an "
+                                                            "OpenVDB grid"),
+])
+def test_refusals_and_bad_arguments_name_what_and_why(tmp_path, code, message):
+    with pytest.raises(FgsliceError, match=message):
+        _design(tmp_path, code + "\n")

@@ -5,7 +5,11 @@
   differences of step :data:`GRADIENT_EPSILON` (OpenVCAD's ``m_gradient_epsilon``), a
   ``Vec3`` (unit length where the distance is exact);
 * ``snap(Vec3)``: the nearest point on the surface, ``p - f(p) ∇f / |∇f|²`` repeated
-  until ``|f|`` is below :data:`SNAP_TOLERANCE` (one step when the distance is exact).
+  until ``|f|`` is below :data:`SNAP_TOLERANCE` (one step when the distance is exact);
+* ``bounding_box()``: ``(Vec3 min, Vec3 max)``, the tight bounds of the node's shape (mm);
+* ``prepare(voxel_size, bandwidth...)``: OpenVCAD's one-off sampling set-up before
+  evaluation; fgslice needs none (it samples the design itself), so it only checks its
+  arguments.
 
 The node is converted at each call, so a node changed afterwards (``add_child``) answers
 for what it is then.
@@ -80,3 +84,24 @@ def snap(node, *args):
         p = p - distance * g / norm2
     raise DesignError(f"{owner}: no surface point found from {tuple(_point(owner, args))} "
                       "(the distance has no slope there)", hint="snap a point nearer the surface")
+
+
+def bounding_box(node):
+    """``(min, max)`` corners of ``node``'s shape, two ``Vec3`` (mm)."""
+    from fgslice.compat.pyvcad import Vec3, to_node
+
+    lo, hi = to_node(node).bounds()
+    if np.any(lo > hi):
+        raise DesignError(f"{type(node).__name__}.bounding_box: the shape is empty")
+    return Vec3(*lo), Vec3(*hi)
+
+
+def prepare(node, voxel_size, *bandwidths) -> None:
+    """OpenVCAD's ``prepare(voxel_size, bandwidth...)``: the arguments checked, nothing to do."""
+    from fgslice.compat.pyvcad import Vec3
+
+    owner = f"{type(node).__name__}.prepare"
+    if not isinstance(voxel_size, Vec3) or not all(v > 0 for v in voxel_size):
+        raise DesignError(f"{owner} takes a voxel size Vec3 of positive sizes first, got {voxel_size!r}")
+    if not all(isinstance(b, numbers.Real) and not isinstance(b, bool) and b >= 0 for b in bandwidths):
+        raise DesignError(f"{owner}: bandwidths are numbers >= 0, got {bandwidths!r}")

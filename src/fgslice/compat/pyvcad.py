@@ -69,12 +69,20 @@ def __getattr__(name: str):
     if name in pyvcad_v3.__all__:
         value = globals()[name] = getattr(pyvcad_v3, name)  # found once: later look-ups skip this function
         return value
+    if name in ("TriangleMeshSurface", "TrimMode"):  # OpenVCAD 3's conformal maps on meshes
+        from fgslice.compat import pyvcad_metamaterials
+
+        _REFUSED[name] = pyvcad_metamaterials.CONFORMAL_REASON
     if name in _REFUSED:
         return _Refused(name)
     raise _unsupported("pyvcad", name)
 
 
+_VDB = ("its data is an OpenVDB grid, and no maintained Python package on PyPI reads OpenVDB files",
+        "give the field as an expression or a @cfunc, or the shape as a Mesh (STL, OBJ, 3MF)")
+
 _REFUSED = {
+    **dict.fromkeys(("SignedDistanceField", "Vec2sVolume", "Vec3sVolume", "Vec4sVolume", "vdb_loader"), _VDB),
     "Map": ("OpenVCAD's experimental surface parameterization has no documented geometry or material to print",
             "model the part with its meshes and primitives"),
     "ConformalMap": ("OpenVCAD's experimental wrapping of a pattern onto a surface is defined by its implementation "
@@ -89,14 +97,23 @@ _REFUSED = {
 
 
 class _Refused:
-    """A refused OpenVCAD class: using it raises a DesignError with the reason."""
+    """A refused OpenVCAD name: calling it or reading any of its attributes raises a
+    DesignError with the reason."""
 
     def __init__(self, name: str) -> None:
         self.name = name
 
-    def __call__(self, *args, **kwargs):
+    def _refuse(self) -> DesignError:
         reason, hint = _REFUSED[self.name]
-        raise DesignError(f"pyvcad.{self.name} is not supported by fgslice: {reason}", hint=hint)
+        return DesignError(f"pyvcad.{self.name} is not supported by fgslice: {reason}", hint=hint)
+
+    def __call__(self, *args, **kwargs):
+        raise self._refuse()
+
+    def __getattr__(self, name: str):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        raise self._refuse()
 
 
 def _number(owner: str, what: str, value) -> float:
@@ -380,6 +397,18 @@ class Node:
         from fgslice.compat import evaluation
 
         return evaluation.snap(self, point)
+
+    def bounding_box(self) -> tuple[Vec3, Vec3]:
+        """The shape's ``(min, max)`` corners (:mod:`fgslice.compat.evaluation`)."""
+        from fgslice.compat import evaluation
+
+        return evaluation.bounding_box(self)
+
+    def prepare(self, voxel_size, *bandwidths) -> None:
+        """OpenVCAD's sampling set-up: nothing to do here (:mod:`fgslice.compat.evaluation`)."""
+        from fgslice.compat import evaluation
+
+        evaluation.prepare(self, voxel_size, *bandwidths)
 
     def set_attribute(self, name, attribute) -> None:
         """OpenVCAD 3: attach ``attribute`` as ``name`` (:mod:`fgslice.compat.pyvcad_v3`)."""

@@ -68,13 +68,13 @@ __all__ = [
     "tpms", "graph_lattice", "ramp", "mix", "properties", *TPMS_NAMES, *LATTICE_NAMES,
 ]
 
-_CONFORMAL = ("OpenVCAD's conformal cell maps flatten a surface into a chart and fill the offset volume with "
+CONFORMAL_REASON = ("OpenVCAD's conformal cell maps flatten a surface into a chart and fill the offset volume with "
               "curved cells; fgslice implements rectangular cell maps only",
               "fill the part with a rectangular_cell_map(...) lattice clipped by Intersection, or export the "
               "conformal lattice from OpenVCAD as a mesh and slice the mesh")
 _REFUSED = {
-    "cell_map_from_surface": _CONFORMAL, "cell_map_between_surfaces": _CONFORMAL,
-    "cell_map_from_cad_face": _CONFORMAL, "cell_map_between_cad_faces": _CONFORMAL,
+    "cell_map_from_surface": CONFORMAL_REASON, "cell_map_between_surfaces": CONFORMAL_REASON,
+    "cell_map_from_cad_face": CONFORMAL_REASON, "cell_map_between_cad_faces": CONFORMAL_REASON,
     "warp_cell_map": ("how OpenVCAD turns its spacing weights (u_scale, which may be negative) into cell "
                       "boundaries is not documented, so fgslice cannot place the cells where OpenVCAD does",
                       "use rectangular maps of the cell sizes you want side by side, or grade wall_thickness / "

@@ -39,8 +39,7 @@ from fgslice.compat import context
 from fgslice.compat import pyvcad as v2
 from fgslice.compat import pyvcad_v3_leaves as leaves
 from fgslice.compat.pyvcad_v3_leaves import (  # noqa: F401 - served under pyvcad (leaves.__all__)
-    Cone, DICOMLoader, FloatVolume, MappedGraphLattice, MappedImplicitLattice, SignedDistanceField, Vec2sVolume,
-    Vec3sVolume, Vec4sVolume, vdb_loader, CellMap, GraphUnitCell, ImplicitUnitCell)
+    Cone, DICOMLoader, FloatVolume, MappedGraphLattice, MappedImplicitLattice, CellMap, GraphUnitCell, ImplicitUnitCell)
 from fgslice.compat.numba_standin import CFunc
 from fgslice.compat.pyvcad_cad import CADModel  # noqa: F401 - served as pyvcad.CADModel
 from fgslice.compat.pyvcad_v3_fields import FloatOps, Vec3Ops, derived

@@ -25,11 +25,8 @@ from fgslice.errors import DesignError
 
 _DOCS = "see the OpenVCAD 3 section of docs/language.md"
 
-_VDB_NAMES = ("SignedDistanceField", "Vec2sVolume", "Vec3sVolume", "Vec4sVolume", "vdb_loader")
-"""OpenVCAD names of OpenVDB data, refused with the reason."""
-
 __all__ = ["Cone", "MappedImplicitLattice", "MappedGraphLattice", "CellMap", "ImplicitUnitCell", "GraphUnitCell",
-           "FloatVolume", "DICOMLoader", *_VDB_NAMES]
+           "FloatVolume", "DICOMLoader"]
 
 
 class Cone(v2._Leaf):
@@ -125,27 +122,3 @@ class DICOMLoader:
     def as_volume(self) -> FloatVolume:
         """The series' FloatVolume."""
         return self._volume
-
-
-class _Refused:
-    """An OpenVCAD name fgslice refuses with its reason as soon as a script uses it."""
-
-    def __init__(self, name: str) -> None:
-        self._name = name
-
-    def _refuse(self) -> DesignError:
-        return DesignError(f"pyvcad.{self._name} is not supported by fgslice: its data is an OpenVDB grid, and no "
-                           "maintained Python package on PyPI reads OpenVDB files",
-                           hint="give the field as an expression or a @cfunc, or the shape as a Mesh (STL, OBJ, 3MF)")
-
-    def __call__(self, *args, **kwargs):
-        raise self._refuse()
-
-    def __getattr__(self, name: str):
-        if name.startswith("__"):
-            raise AttributeError(name)
-        raise self._refuse()
-
-
-for _name in _VDB_NAMES:
-    globals()[_name] = _Refused(_name)
