@@ -166,6 +166,7 @@ def test_every_script_is_classified():
 
 
 @pytest.mark.slow
+@pytest.mark.filterwarnings("error::RuntimeWarning")  # a numeric warning reaches the user as noise
 @pytest.mark.parametrize("name", SLICES)
 def test_each_guide_script_checks_and_slices_within_its_design(name, tmp_path):
     design = load_script(_placed(name, tmp_path))
