@@ -100,3 +100,22 @@ def test_bad_sweeps_are_refused_before_slicing(tmp_path, disc):
     with pytest.raises(SettingsError, match="colors"):
         run_sweep(disc, tmp_path / "out", colors=[4, 0])
     assert not (tmp_path / "out").exists()
+
+
+def test_a_sweep_runs_an_openvcad_script_with_its_compilers_filaments(tmp_path):
+    """An OpenVCAD 3 colour bar compiled for PrusaSlicer with two filaments: each
+    combination is sliced with those filaments' colours, red at one end, blue at the other."""
+    script = tmp_path / "bar.py"
+    script.write_text(
+        "import pyvcad as pv\nimport pyvcad_compilers as pvc\n"
+        "bar = pv.RectPrism(pv.Vec3(0, 0, 0.6), pv.Vec3(24, 8, 1.2))\n"
+        "bar.set_attribute(pv.DefaultAttributes.COLOR_RGB, pv.Vec3Attribute('0.5 - x/24', '0', '0.5 + x/24'))\n"
+        "pvc.PrusaSlicerProjectCompiler(bar, pv.Vec3(0.25, 0.25, 0.25), 'bar.3mf', num_regions=12,\n"
+        "    color_mix_filaments=[{'slot': 1, 'color_hex': '#ff0000'}, {'slot': 2, 'color_hex': '#0000ff'}]).compile()\n")
+    rows = run_sweep(script, tmp_path / "out", colors=[2, 4], strategy=[2], profile="marlin-mixing",
+                     overrides=BASE, jobs=1)
+    assert [r["name"] for r in rows] == ["bar_c2_z0_s2", "bar_c4_z0_s2"]
+    for row in rows:
+        gcode = (tmp_path / "out" / f"{row['name']}.gcode").read_bytes()
+        assert b"filament_colors = #ff0000,#0000ff" in gcode
+        assert _states(gcode) == set(range(row["colors"]))

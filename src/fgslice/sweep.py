@@ -25,6 +25,7 @@ folder they can reach (a shared file system for a remote cluster). The submitter
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -32,7 +33,8 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
-from fgslice.design import load_design
+from fgslice.compat import open_design
+from fgslice.compat.slicer_project import machine_settings, project_of
 from fgslice.design.base import Design
 from fgslice.errors import SettingsError
 from fgslice.executor import map_ordered
@@ -157,7 +159,8 @@ def run_sweep(
     ``summary.csv`` into ``out_dir`` (created if missing).
 
     Args:
-        design_path: the ``.vcad`` design.
+        design_path: the design: ``.vcad`` text or an OpenVCAD ``.py`` script (whose
+            slicer-project compiler's filaments apply as ``fgslice slice`` applies them).
         out_dir: output folder.
         colors: palette sizes N.
         zipper: zipper widths beta, percent (strategy 1 only).
@@ -187,8 +190,11 @@ def run_sweep(
         for suffix in (".gcode", ".json"):
             check_writable(out_dir / f"{combination.name}{suffix}", inputs=(design_path,))
     summary = check_writable(out_dir / "summary.csv", inputs=(design_path,))
+    design = open_design(design_path, materials)
+    project = project_of(design)
+    todo = [dataclasses.replace(c, settings=machine_settings(project, design, c.settings)) for c in todo]
     job = _SweepJob(
-        design=load_design(design_path, materials),
+        design=design,
         out_dir=out_dir.resolve(),
         jobs=1 if scheduler else jobs,
         comments={"design": str(design_path), "sweep": out_dir.name},
