@@ -433,3 +433,21 @@ def test_an_unexpected_exception_is_a_short_message_unless_asked(tmp_path, monke
     monkeypatch.setenv("FGSLICE_TRACEBACK", "1")
     result = CliRunner().invoke(main, ["check", str(design)])
     assert isinstance(result.exception, RuntimeError)
+
+
+@pytest.mark.parametrize("command", [["check"], ["slice", "-o", "-"]], ids=["check", "slice to stdout"])
+def test_a_reader_that_stops_early_ends_the_command_quietly(tmp_path, command):
+    """``fgslice check part.vcad | head -1``: as other Unix tools, exit 128 + SIGPIPE, no
+    message. The reader is gone before the first write, so no pipe buffer hides the break."""
+    design = tmp_path / "part.vcad"
+    design.write_text("cube(10);\n")
+    reader, writer = os.pipe()
+    os.close(reader)
+    try:
+        proc = subprocess.run([str(FGSLICE), command[0], str(design), *command[1:]], stdout=writer,
+                              stderr=subprocess.PIPE, text=True, cwd=tmp_path, timeout=120)
+    finally:
+        os.close(writer)
+    assert proc.returncode == 128 + signal.SIGPIPE, proc.stderr
+    assert "error" not in proc.stderr and "Traceback" not in proc.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["part.vcad"]

@@ -11,6 +11,7 @@ import json
 import math
 import os
 import shutil
+import signal
 import sys
 import tempfile
 import traceback
@@ -68,6 +69,9 @@ class _Group(click.Group):
             sys.exit(130)
         except (click.ClickException, click.exceptions.Exit, click.exceptions.Abort):
             raise
+        except BrokenPipeError:  # the reader of stdout left (`fgslice check x | head`): stop quietly, as cat does
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error when Python flushes
+            sys.exit(128 + signal.SIGPIPE)
         except Exception as error:
             if os.environ.get("FGSLICE_TRACEBACK"):
                 raise
@@ -123,13 +127,9 @@ def slice_command(design, output, profile, strategy, colors, layer_height, sets,
         with tempfile.TemporaryDirectory(prefix="fgslice-") as folder:
             gcode = Path(folder) / design.with_suffix(".gcode").name
             _slice(design, gcode, settings, materials, stats_path, report_path, jobs, scheduler, "<stdout>")
-            try:
-                with open(gcode, "rb") as handle:
-                    shutil.copyfileobj(handle, sys.stdout.buffer)
-                sys.stdout.buffer.flush()
-            except BrokenPipeError:  # the reader stopped early (| head): as other Unix tools, quietly
-                os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-                sys.exit(1)
+            with open(gcode, "rb") as handle:  # a reader that stops early (| head): see _Group.invoke
+                shutil.copyfileobj(handle, sys.stdout.buffer)
+            sys.stdout.buffer.flush()
         return
     _slice(design, output, settings, materials, stats_path, report_path, jobs, scheduler, str(output))
 
