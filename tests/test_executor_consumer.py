@@ -210,3 +210,34 @@ def test_a_pool_map_left_early_stops_workers_that_only_note_sigterm(tmp_path):
     assert next(results) == 0
     results.close()
     assert multiprocessing.active_children() == [] and not marker.exists()
+
+
+def large_result_or_error(state, item):
+    if item == 3:
+        raise SliceError("layer 3 failed " + "x" * 20000)  # a message larger than a pipe takes at once
+    return b"x" * 3_000_000
+
+
+def test_a_pool_map_stopped_by_an_error_ends_though_a_worker_dies_mid_result(capfd):
+    """A worker killed while writing a large result leaves the pool's reader mid-message:
+    the map must still end, with the error, and print nothing else."""
+    import multiprocessing
+    import threading
+
+    for _ in range(5):
+        outcome = []
+
+        def run():
+            try:
+                for _ in map_ordered(large_result_or_error, None, range(40), jobs=2):
+                    pass
+            except SliceError as error:
+                outcome.append(error)
+
+        thread = threading.Thread(target=run, daemon=True)
+        thread.start()
+        thread.join(60)
+        assert not thread.is_alive(), "the map never ended"
+        assert outcome and "layer 3 failed" in str(outcome[0])
+        assert multiprocessing.active_children() == []
+    assert "Exception in thread" not in capfd.readouterr().err

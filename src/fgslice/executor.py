@@ -441,14 +441,46 @@ def _map_pool(fn, state, items, jobs, window) -> Iterator[Any]:
             hint="retry with --jobs 1 to slice in one process",
         ) from None
     finally:
-        for future in pending:
-            future.cancel()
         if not finished:  # stopped early (an error, Ctrl-C, SIGTERM): the runs in flight are not awaited
             for process in list((getattr(pool, "_processes", None) or {}).values()):
                 process.kill()  # not SIGTERM, which a worker just forked only notes (Consumer.close)
+            _release_result_reader(pool)  # before cancelling: the ending thread fails the futures it holds
+        for future in pending:
+            future.cancel()
         pool.shutdown(wait=True, cancel_futures=True)
         if slots:
             slots.close()
+
+
+RELEASE_SECONDS = 10.0
+"""Longest a stopped pool's reader thread is fed to let it end (then it is left behind)."""
+
+
+def _release_result_reader(pool: ProcessPoolExecutor) -> None:
+    """Let the pool's reader thread end after its workers were killed.
+
+    A worker killed while it was writing a result (an exception's traceback, a result
+    larger than the pipe takes at once) leaves the reader thread waiting for the rest of
+    the message; the pool's own end of the pipe stays open, so no end of file ever comes,
+    and ``shutdown`` would wait for that thread forever. Zeros written into the pipe
+    complete the message, which then does not unpickle: the thread marks the pool broken
+    and ends, as it does when it sees the killed workers first.
+    """
+    thread = getattr(pool, "_executor_manager_thread", None)
+    queue = getattr(pool, "_result_queue", None)
+    if thread is None or queue is None:
+        return
+    thread.join(0.2)
+    if not thread.is_alive():
+        return
+    fd = queue._writer.fileno()
+    os.set_blocking(fd, False)
+    zeros = bytes(1 << 16)
+    deadline = time.monotonic() + RELEASE_SECONDS
+    while thread.is_alive() and time.monotonic() < deadline:
+        with contextlib.suppress(BlockingIOError):
+            os.write(fd, zeros)
+        thread.join(0.01)
 
 
 def _map_dask(fn, state, items, scheduler, window) -> Iterator[Any]:
