@@ -180,13 +180,12 @@ def _write_report(path: Path, result, settings, design, err: bool = False) -> No
     """The HTML report of a finished slice, with its simulated fidelity."""
     from fgslice.analysis.fidelity import fidelity, simulation_stats
     from fgslice.analysis.simulate import simulate
-    from fgslice.design.color_mix import mix_colors
-    from fgslice.design.profile_tables import apply_attribute_tables
+    from fgslice.design.machine_design import for_machine
     from fgslice.machine.state_dialect import dialect_for
     from fgslice.preview.report import write_report
     from fgslice.slicing.states import make_palette
 
-    design = mix_colors(apply_attribute_tables(design, settings), settings)
+    design = for_machine(design, settings)
     palette = make_palette(len(design.materials), settings.colors, settings.palette, result.stats.get("temperature_levels"))
     simulated = simulate(result.output, design, None, settings)
     write_report(

@@ -40,8 +40,7 @@ import shapely
 from fgslice.coverage import check_coverage, mesh_warnings, part_volume
 from fgslice.design.fingerprint import fingerprint
 from fgslice.design.base import Design
-from fgslice.design.color_mix import mix_colors
-from fgslice.design.profile_tables import apply_attribute_tables
+from fgslice.design.machine_design import for_machine
 from fgslice.design.lattice_widths import check_lattice_widths
 from fgslice.design.support_bodies import split_support_bodies
 from fgslice.errors import FgsliceError, SliceError
@@ -411,7 +410,7 @@ def slice_to_gcode(
     jobs = default_jobs() if jobs is None else max(1, jobs)
     design_fingerprint = fingerprint(design)  # of the design as given: simulate compares it
     bodies = split_support_bodies(design)
-    design = mix_colors(apply_attribute_tables(bodies.part, settings), settings)
+    design = for_machine(bodies.part, settings)
     attributes = checked_attributes(design, settings)
     levels = state_levels(attributes.ranges, attributes.cover, settings) if attributes is not None else None
     palette = make_palette(len(design.materials), settings.colors, settings.palette, levels)

@@ -655,8 +655,7 @@ def simulate(
     from fgslice.slicing.plan_layers import place_design
     from fgslice.slicing.states import header_palette, material_palette
 
-    from fgslice.design.color_mix import mix_colors
-    from fgslice.design.profile_tables import apply_attribute_tables
+    from fgslice.design.machine_design import for_machine
     from fgslice.design.fingerprint import fingerprint
 
     header = GcodeHeader() if isinstance(gcode, GcodeProgram) else _header_of(gcode)
@@ -667,8 +666,7 @@ def simulate(
             f"design's {fingerprint(design)}: the shape or the field differ)",
             hint="pass the design the G-code was sliced from (--design), or slice this design again",
         )
-    design = mix_colors(apply_attribute_tables(design, settings), settings)  # as sliced: the profile's tables,
-    # a colour attribute printed as filament mixtures
+    design = for_machine(design, settings)  # as sliced
     names = tuple(m.name for m in design.materials)
     if header.materials and header.materials != names:
         raise DesignError(

@@ -110,10 +110,9 @@ def check_design(design: Design, *, samples: int = DEFAULT_SAMPLES, settings=Non
     ``settings`` (:class:`fgslice.settings.Settings`) give the machine's limits of the
     process attributes (the defaults when None)."""
     if settings is not None:
-        from fgslice.design.color_mix import mix_colors
-        from fgslice.design.profile_tables import apply_attribute_tables
+        from fgslice.design.machine_design import for_machine
 
-        design = mix_colors(apply_attribute_tables(design, settings), settings)
+        design = for_machine(design, settings)
     bounds = design.bounds()
     node_count = design.node_count if isinstance(design, NodeDesign) else 0
     report = CheckReport(list(design.materials), bounds, node_count)

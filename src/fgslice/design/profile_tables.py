@@ -49,8 +49,7 @@ class AttributeTable:
 
     def __call__(self, inputs: list[np.ndarray]) -> list[np.ndarray]:
         """The target at the source values ``inputs[0]`` (NaN where the source is NaN)."""
-        (converted,) = lookup_tables.linear(self.keys, self.values[:, None], inputs[0])
-        return [np.where(np.isfinite(inputs[0]), converted, np.nan)]
+        return lookup_tables.linear(self.keys, self.values[:, None], inputs[0])
 
 
 def parse_attribute_tables(text: str) -> list[AttributeTable]:
